@@ -1,0 +1,64 @@
+# ugpcl: `make run` and `make test` set everything up on a fresh machine (virtualenv, pip packages, PoCL).
+PYTHON ?= python3
+VENV ?= .venv
+UGPCL_DEVICE ?=
+SCENE ?= boids
+export UGPCL_DEVICE
+
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+# Debian packages: PoCL (the CPU OpenCL that builds kernels here; PyPI's pocl-binary-distribution cannot, see
+# DESIGN.md), Mesa's EGL/llvmpipe for offscreen PNGs, Xvfb + xdotool for the test that opens a real window.
+SYSTEM_PACKAGES := pocl-opencl-icd ocl-icd-libopencl1 libegl1 libegl-mesa0 libgl1-mesa-dri xvfb xdotool
+
+.DEFAULT_GOAL := help
+.PHONY: help system-deps venv run test test-oclgrind bench view png docs lint clean
+
+help: ## list the targets
+	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-14s %s\n", $$1, $$2}'
+
+system-deps: ## install PoCL and Mesa EGL with apt-get where they are missing (root), else say what to install
+	@command -v dpkg >/dev/null || { echo "make: no dpkg here; install an OpenCL driver (PoCL or a GPU's) and EGL yourself"; exit 0; }; \
+	missing=$$(for p in $(SYSTEM_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
+	if [ -z "$$missing" ]; then exit 0; fi; \
+	if command -v apt-get >/dev/null && [ "$$(id -u)" = 0 ]; then \
+	  echo "make: apt-get install $$missing"; \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $$missing >/dev/null; \
+	else echo "make: missing Debian packages: $$missing (run: sudo apt-get install $$missing)"; fi
+
+$(STAMP): setup.cfg pyproject.toml
+	@$(MAKE) --no-print-directory system-deps
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install -q --upgrade pip
+	$(BIN)/pip install -q -e '.[dev]'
+	@touch $@
+
+venv: $(STAMP) ## create .venv/ and install ugpcl (editable) with its test tools
+
+run: $(STAMP) ## headless main job: 4096 boids, 600 steps -> out/boids.npz + out/boids.png
+	$(BIN)/ugpcl run boids --steps 600 --seed 0 --set max_object_num=4096 --out out/boids.npz --png out/boids.png
+
+test: $(STAMP) ## the test suite on PoCL (CPU)
+	$(BIN)/pytest -m "not oclgrind" -q
+
+test-oclgrind: $(STAMP) ## every kernel on the Oclgrind simulator: data races, out-of-bounds access
+	OCLGRIND_DATA_RACES=1 $(BIN)/pytest -m oclgrind -q
+
+bench: $(STAMP) ## benchmark tables for every chapter on the chosen device
+	$(BIN)/ugpcl bench --all
+
+view: $(STAMP) ## open a scene in a window: make view SCENE=boids
+	$(BIN)/ugpcl-view $(SCENE)
+
+png: $(STAMP) ## regenerate docs/img/<scene>.png for every scene (offscreen)
+	$(BIN)/python -m ugpcl.docs images
+
+docs: $(STAMP) ## regenerate the key and parameter tables of docs/chapters/
+	$(BIN)/python -m ugpcl.docs tables
+
+lint: $(STAMP) ## ruff check + format check
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
+
+clean: ## remove the virtualenv and outputs
+	rm -rf $(VENV) out .pytest_cache .ruff_cache *.egg-info

@@ -1,0 +1,58 @@
+"""Fixtures shared by every test module: the PoCL runtime, the Oclgrind runtime with its report check, GL."""
+
+from __future__ import annotations
+
+import os
+import re
+
+# Oclgrind reads its options when its ICD loads, i.e. at the first platform enumeration: set them before that.
+os.environ.setdefault("OCLGRIND_DATA_RACES", "1")
+
+import pytest  # noqa: E402
+
+from ugpcl.runtime import Runtime  # noqa: E402
+
+OCLGRIND_REPORT = re.compile(r"Kernel: |data race|Invalid (read|write)|divergence|Uninitiali[sz]ed|Oclgrind -")
+
+
+@pytest.fixture(scope="session")
+def runtime() -> Runtime:
+    """The device under test: UGPCL_DEVICE if set (e.g. nvidia on the GPU machine), else PoCL."""
+    return Runtime(os.environ.get("UGPCL_DEVICE") or "pocl")
+
+
+@pytest.fixture(scope="session")
+def _oclgrind_runtime() -> Runtime:
+    return Runtime("oclgrind")
+
+
+@pytest.fixture
+def oclgrind(_oclgrind_runtime, capfd):
+    """The Oclgrind simulator; the test fails if Oclgrind printed any report (races, out-of-bounds, divergence)."""
+    capfd.readouterr()
+    yield _oclgrind_runtime
+    _oclgrind_runtime.finish()
+    err = capfd.readouterr().err
+    reports = [block.strip() for block in err.split("\n\n") if OCLGRIND_REPORT.search(block)]
+    assert not reports, f"Oclgrind reported {len(reports)} problem(s); the first:\n{reports[0]}"
+
+
+@pytest.fixture
+def seed() -> int:
+    return 20260522
+
+
+@pytest.fixture(scope="session")
+def gl_context(runtime):
+    """One EGL context for the session, created after OpenCL (see ugpcl.runtime.all_devices)."""
+    from viewer.offscreen import context
+
+    return context()
+
+
+@pytest.fixture
+def gl(gl_context):
+    """The GL context, with no GL error before or after the test."""
+    assert gl_context.error == "GL_NO_ERROR"
+    yield gl_context
+    assert gl_context.error == "GL_NO_ERROR"

@@ -1,0 +1,126 @@
+"""The headless CLI: `ugpcl run` writes what the spec says, bad input exits 2 with one line."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from helpers import foreground
+from PIL import Image
+
+from ugpcl.cli import main
+from ugpcl.scenes.boids import initial_boids
+
+
+def run(capsys, *argv) -> tuple[int, str, str]:
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_run_boids_writes_the_state_and_params(capsys, tmp_path):
+    out = tmp_path / "x.npz"
+    code, _, _ = run(capsys, "run", "boids", "--steps", "1", "--seed", "3", "--set", "max_object_num=1024",
+                     "--out", str(out))
+    assert code == 0
+    data = np.load(out)
+    for key in ("position", "velocity", "force"):
+        assert data[key].shape == (1024, 3) and data[key].dtype == np.float32
+    params = json.loads(str(data["params"]))
+    assert params["max_object_num"] == 1024 and params["dt"] == pytest.approx(1 / 60) and params["max_speed"] == 5.0
+    assert int(data["seed"]) == 3 and int(data["steps"]) == 1 and "device" in data and "ugpcl_version" in data
+
+
+def test_zero_steps_writes_the_initial_state(capsys, tmp_path):
+    out = tmp_path / "x.npz"
+    assert run(capsys, "run", "boids", "--steps", "0", "--seed", "5", "--set", "max_object_num=300",
+               "--out", str(out))[0] == 0
+    expected = initial_boids(300, 5)
+    np.testing.assert_array_equal(np.load(out)["position"], expected["position"][:, :3])
+
+
+def test_every_k_stacks_a_history(capsys, tmp_path):
+    out = tmp_path / "h.npz"
+    assert run(capsys, "run", "boids", "--steps", "6", "--every", "3", "--set", "max_object_num=100",
+               "--dt", "0.02", "--out", str(out))[0] == 0
+    data = np.load(out)
+    assert data["position_history"].shape == (3, 100, 3) and data["velocity_history"].shape == (3, 100, 3)
+    np.testing.assert_allclose(data["time"], [0.0, 0.06, 0.12], atol=1e-6)
+    np.testing.assert_array_equal(data["position_history"][-1], data["position"])
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["run", "boids", "--set", "max_object_num=0"], "max_object_num must be in [1, 4194304], got 0"),
+        (["run", "boids", "--set", "max_speed=fast"], "max_speed expects float, got 'fast'"),
+        (["run", "boids", "--set", "speed=1"], "unknown parameter 'speed'; valid: max_object_num"),
+        (["run", "boids", "--set", "max_speed"], "--set expects name=value"),
+        (["run", "boidz"], "unknown scene 'boidz'; valid: boids"),
+        (["run", "boids", "--dt", "0"], "dt must be in (0, 1], got 0.0"),
+        (["run", "boids", "--steps", "-1"], "--steps must be >= 0"),
+        (["run", "boids", "--every", "0"], "--every must be >= 1"),
+        (["run", "compute_intro", "--every", "2"], "keeps no history"),
+        (["run", "boids", "--mesh", "x.obj"], "--mesh: scene boids makes no mesh"),
+    ],
+)
+def test_bad_input_is_one_clear_line_and_exit_2(capsys, argv, message):
+    code, out, err = run(capsys, *argv)
+    assert code == 2
+    assert err.strip().count("\n") == 0 and message in err, err
+
+
+def test_misspelt_option_is_an_error_not_an_abbreviation(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["run", "boids", "--step", "3"])
+    assert exit_.value.code == 2
+    assert "unrecognized arguments: --step" in capsys.readouterr().err
+
+
+def test_list_info_and_params(capsys):
+    code, out, _ = run(capsys, "list")
+    assert code == 0 and "boids" in out and "compute_intro_texture" in out
+    code, out, _ = run(capsys, "info")
+    assert code == 0 and "chosen because" in out and "SV_DispatchThreadID" in out and "shared memory" in out
+    code, out, _ = run(capsys, "params", "boids")
+    assert code == 0 and "separate_neighborhood_radius" in out and "_SeparateNeighborhoodRadius" in out
+
+
+def test_compute_intro_npz_has_the_spec_arrays(capsys, tmp_path):
+    out = tmp_path / "ci.npz"
+    assert run(capsys, "run", "compute_intro", "--steps", "1", "--set", "int_value=3", "--out", str(out))[0] == 0
+    data = np.load(out)
+    np.testing.assert_array_equal(data["array_after_a"], [0, 3, 6, 9])
+    np.testing.assert_array_equal(data["array_after_b"], [1, 4, 7, 10])
+    assert data["tex_a"].shape == (512, 512, 4) and data["tex_a"].dtype == np.uint8
+    assert data["probe_global"].shape == (16, 3) and data["probe_flat"].shape == (16,)
+    np.testing.assert_array_equal(data["local_size"], [8, 8, 1])
+
+
+@pytest.mark.gl
+def test_run_png_shows_the_flock(capsys, tmp_path, gl):
+    png = tmp_path / "boids.png"
+    code, _, _ = run(capsys, "run", "boids", "--steps", "2", "--set", "max_object_num=2048", "--out",
+                     str(tmp_path / "b.npz"), "--png", str(png), "--png-size", "160x120")
+    assert code == 0
+    pixels = np.asarray(Image.open(png).convert("RGB"))
+    assert pixels.shape == (120, 160, 3)
+    mask = foreground(pixels, (0.192, 0.302, 0.475))
+    assert mask[50:70, 70:90].mean() > 0.5, "no boids in the centre (they start in the unit ball)"
+    assert not mask[:20, 20:140].any(), "boid pixels far from the ball"
+
+
+def test_bench_prints_a_table(capsys):
+    code, out, _ = run(capsys, "bench", "boids", "--size", "256")
+    assert code == 0
+    assert "interactions/s" in out and "flocking" in out and out.count("tiled") == 2
+
+
+def test_console_script_runs(tmp_path):
+    bin_dir = __import__("pathlib").Path(sys.executable).parent
+    result = subprocess.run([str(bin_dir / "ugpcl"), "run", "boids", "--set", "max_object_num=-3"],
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 2 and "max_object_num must be in" in result.stderr

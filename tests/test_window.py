@@ -1,0 +1,68 @@
+"""`ugpcl-view` in a real window: Xvfb for the screen, xdotool for the keys (Debian xvfb + xdotool; `make`
+installs them)."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from helpers import foreground
+from PIL import Image
+
+
+@pytest.fixture
+def display():
+    missing = [tool for tool in ("Xvfb", "xdotool") if shutil.which(tool) is None]
+    if missing:
+        pytest.fail(f"{' and '.join(missing)} not installed: `make system-deps` (Debian: apt-get install xvfb xdotool)")
+    read_fd, write_fd = os.pipe()
+    server = subprocess.Popen(["Xvfb", "-displayfd", str(write_fd), "-screen", "0", "1024x768x24", "-nolisten", "tcp"],
+                              pass_fds=[write_fd], stderr=subprocess.DEVNULL)
+    os.close(write_fd)
+    with os.fdopen(read_fd) as pipe:
+        number = pipe.readline().strip()
+    yield f":{number}"
+    server.terminate()
+    server.wait(timeout=10)
+
+
+def xdotool(env, *args) -> str:
+    return subprocess.run(["xdotool", *args], env=env, capture_output=True, text=True, timeout=30).stdout.strip()
+
+
+@pytest.mark.gl
+def test_view_opens_a_window_and_obeys_keys(display, tmp_path):
+    env = {**os.environ, "DISPLAY": display}
+    viewer = Path(sys.executable).parent / "ugpcl-view"
+    app = subprocess.Popen([str(viewer), "boids", "--set", "max_object_num=512", "--size", "320x240"], cwd=tmp_path,
+                           env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        window = xdotool(env, "search", "--sync", "--onlyvisible", "--name", "ugpcl")
+        assert window, "no ugpcl window appeared"
+        window = window.splitlines()[0]
+        xdotool(env, "windowfocus", "--sync", window)
+        xdotool(env, "key", "h")  # help overlay
+        xdotool(env, "key", "space")  # pause
+        time.sleep(1.0)
+        xdotool(env, "key", "s")  # screenshot
+        deadline = time.time() + 30
+        while time.time() < deadline and not list((tmp_path / "out").glob("boids-*.png")):
+            time.sleep(0.2)
+        shots = list((tmp_path / "out").glob("boids-*.png"))
+        assert shots, "the S key wrote no screenshot"
+        xdotool(env, "key", "Escape")
+        assert app.wait(timeout=30) == 0, "Esc did not close the window cleanly"
+    finally:
+        if app.poll() is None:
+            app.kill()
+        _, err = app.communicate()
+    pixels = np.asarray(Image.open(shots[0]).convert("RGB"))
+    assert pixels.shape == (240, 320, 3)
+    assert foreground(pixels, (0.192, 0.302, 0.475)).mean() > 0.05, "the screenshot shows no boids or overlay"
+    assert "wrote out/boids-" in err
