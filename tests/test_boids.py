@@ -298,8 +298,7 @@ def test_bad_dt_is_refused(runtime):
 
 @pytest.mark.gl
 def test_view_draws_boids_where_they_are(runtime, gl):
-    from viewer.offscreen import Frame
-
+    from viewer.offscreen import frame
     from viewer.views import create_view
 
     scene = get("boids")
@@ -314,11 +313,9 @@ def test_view_draws_boids_where_they_are(runtime, gl):
     size = (160, 120)
     camera.aspect = size[0] / size[1]
     view.upload()
-    frame = Frame(gl, size)
     query = gl.query(primitives=True)
     with query:
-        pixels = frame.render(view, camera)
-    frame.release()
+        pixels = frame(size).render(view, camera)
     assert query.primitives == 12 * n, "one cube (12 triangles) per boid"
     mask = foreground(pixels, view.background)
     # project every boid centre with the camera and look at that pixel

@@ -268,6 +268,8 @@ class Scene:
     defaults: dict = field(default_factory=dict)
     view: str | None = None
     """Name of the view class in ``viewer/views/<stem>.py`` (None: the module's ``View``)."""
+    preview: dict = field(default_factory=lambda: {"steps": 300})
+    """How docs/img/<name>.png is made (``make png``): ``steps`` and parameter overrides."""
 
     @property
     def stem(self) -> str:

@@ -149,3 +149,41 @@ class Lines:
         set_camera(self.program, camera)
         self.program["color"].value = tuple(self.color)
         self.vao.render(moderngl.LINES, vertices=self.count)
+
+
+class Discs:
+    """Filled circles drawn instanced (2D particles): per instance x, y, radius, r, g, b, a (7 floats)."""
+
+    FLOATS = 7
+
+    def __init__(self, ctx: moderngl.Context):
+        self.ctx = ctx
+        self.program = load_program(ctx, "discs")
+        corners = np.array([-1, -1, 1, -1, -1, 1, 1, 1], "f4")
+        self.quad = ctx.buffer(corners.tobytes())
+        self.instances = None
+        self.count = 0
+
+    def set(self, data: np.ndarray) -> None:
+        data = np.ascontiguousarray(data, "f4").reshape(-1, self.FLOATS)
+        nbytes = max(data.nbytes, 4 * self.FLOATS)
+        if self.instances is None or self.instances.size < nbytes:
+            if self.instances is not None:
+                self.instances.release()
+            self.instances = self.ctx.buffer(reserve=nbytes)
+            self.vao = self.ctx.vertex_array(
+                self.program,
+                [(self.quad, "2f", "in_corner"), (self.instances, "2f 1f 4f/i", "in_center", "in_radius", "in_color")],
+            )
+        if data.nbytes:
+            self.instances.write(data.tobytes())
+        self.count = len(data)
+
+    def draw(self, camera) -> None:
+        if not self.count:
+            return
+        set_camera(self.program, camera)
+        self.ctx.enable(moderngl.BLEND)
+        self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        self.vao.render(moderngl.TRIANGLE_STRIP, instances=self.count)
+        self.ctx.disable(moderngl.BLEND)

@@ -43,9 +43,11 @@ class Frame:
         self.ctx.copy_framebuffer(self.resolved, self.msaa)
         return read_pixels(self.resolved)
 
-    def release(self) -> None:
-        self.msaa.release()
-        self.resolved.release()
+
+@cache
+def frame(size: tuple[int, int]) -> Frame:
+    """One Frame per size, kept: releasing the bound framebuffer leaves moderngl binding a dead one on the next."""
+    return Frame(context(), size)
 
 
 def render(scene, sim, size: tuple[int, int] = (800, 600), view: View | None = None, camera=None) -> np.ndarray:
@@ -55,11 +57,7 @@ def render(scene, sim, size: tuple[int, int] = (800, 600), view: View | None = N
     camera = camera or view.png_camera()
     camera.aspect = size[0] / size[1]
     view.upload()
-    frame = Frame(ctx, size)
-    try:
-        return frame.render(view, camera)
-    finally:
-        frame.release()
+    return frame(tuple(size)).render(view, camera)
 
 
 def render_png(scene, sim, path, size: tuple[int, int] = (800, 600)) -> np.ndarray:

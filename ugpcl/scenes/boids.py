@@ -219,4 +219,11 @@ def bench(runtime, sizes=None) -> list[dict]:
     return rows
 
 
-SCENES = [Scene("boids", Simulation, "GPU boids: flocking with local-memory tiles (vol.1 ch.3)")]
+SCENES = [
+    Scene(
+        "boids",
+        Simulation,
+        "GPU boids: flocking with local-memory tiles (vol.1 ch.3)",
+        preview={"steps": 600, "max_object_num": 4096},
+    )
+]

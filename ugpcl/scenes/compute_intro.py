@@ -248,18 +248,25 @@ def bench(runtime, sizes=None) -> list[dict]:
 
 
 SCENES = [
-    Scene("compute_intro", Simulation, "Compute intro: both samples and the dispatch probe (vol.1 ch.2)"),
+    Scene(
+        "compute_intro",
+        Simulation,
+        "Compute intro: both samples and the dispatch probe (vol.1 ch.2)",
+        preview={"steps": 1},
+    ),
     Scene(
         "compute_intro_array",
         Simulation,
         "Compute intro sample 1: KernelFunction_A/B on a 4-int buffer",
         {"sample": "array"},
         view="ArrayView",
+        preview={"steps": 1},
     ),
     Scene(
         "compute_intro_texture",
         Simulation,
         "Compute intro sample 2: gradients written to two 512x512 textures",
         {"sample": "texture"},
+        preview={"steps": 1},
     ),
 ]

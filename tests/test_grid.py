@@ -1,0 +1,77 @@
+"""Uniform grid (clkernels/grid.cl, ugpcl/grid.py): sorted keys, cell ranges, exact neighbour sets."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ugpcl.grid import UniformGrid
+from ugpcl.runtime import round_up
+
+
+def count_neighbours(rt, grid: UniformGrid, items, n: int, stride: int, offset: int, radius: float) -> np.ndarray:
+    count = rt.zeros(max(n, 1), np.int32)
+    grid.program.kernel("GridCountNeighbours")(
+        rt.queue, (round_up(max(n, 1), 64),), None, items.data, np.int32(stride), np.int32(offset), np.int32(n),
+        np.float32(radius), *grid.geometry_args(), *grid.search_args(), count.data,
+    )
+    return count.get()[:n]
+
+
+def brute_force(points: np.ndarray, radius: float) -> np.ndarray:
+    d2 = ((points[:, None, :].astype(np.float64) - points[None, :, :]) ** 2).sum(-1)
+    return (d2 <= radius * radius).sum(axis=1)
+
+
+@pytest.mark.parametrize("n", [1, 2, 63, 64, 65, 1000, 3001])
+def test_keys_are_sorted_and_ranges_cover_every_item(runtime, n, seed):
+    points = np.random.default_rng(seed).uniform(-1, 1, (n, 4)).astype(np.float32)
+    items = runtime.to_device(points)
+    grid = UniformGrid.covering(runtime, n, (-1, -1, -1), (1, 1, 1), 0.25)
+    grid.build(items, n, stride=4)
+    keys = grid.sorted_keys()
+    assert (np.diff(keys.astype(np.float64)) > 0).all(), "keys not strictly ascending"
+    np.testing.assert_array_equal(np.sort(keys & 0xFFFFFFFF), np.arange(n))  # every item exactly once
+    cells = (keys >> 32).astype(np.int64)
+    start, end = grid.cell_start.get(), grid.cell_end.get()
+    assert (end - start).sum() == n
+    for c in np.unique(cells):
+        assert (cells[start[c] : end[c]] == c).all()
+
+
+@pytest.mark.parametrize("dims3", [True, False])
+def test_neighbour_counts_equal_brute_force(runtime, dims3, seed):
+    rng = np.random.default_rng(seed)
+    n, radius = 2500, 0.3
+    points = rng.uniform(-2, 2, (n, 3))
+    points[:50] *= 3  # some items outside the grid: clamped into the border cells, still found
+    if not dims3:
+        points[:, 2] = 0
+    # an AoS layout: (radius, x, y, z, pad) per item -> stride 5, offset 1
+    data = np.zeros((n, 5), np.float32)
+    data[:, 1:4] = points
+    items = runtime.to_device(data)
+    lower, upper = ((-2, -2, -2), (2, 2, 2)) if dims3 else ((-2, -2), (2, 2))
+    grid = UniformGrid.covering(runtime, n, lower, upper, radius)
+    grid.build(items, n, stride=5, offset=1)
+    counts = count_neighbours(runtime, grid, items, n, 5, 1, radius)
+    np.testing.assert_array_equal(counts, brute_force(data[:, 1:4] if dims3 else data[:, 1:3], radius))
+
+
+def test_build_checks_its_input(runtime):
+    grid = UniformGrid(runtime, 10, (0, 0, 0), 1.0, (4, 4, 4))
+    with pytest.raises(ValueError, match="n must be in \\[0, 10\\], got 11"):
+        grid.build(runtime.zeros(44, np.float32), 11, 4)
+    with pytest.raises(ValueError, match="cell_size must be > 0"):
+        UniformGrid(runtime, 10, (0, 0, 0), 0.0, (4, 4, 4))
+
+
+@pytest.mark.oclgrind
+def test_grid_kernels_on_oclgrind(oclgrind, seed):
+    n = 37
+    points = np.random.default_rng(seed).uniform(0, 1, (n, 4)).astype(np.float32)
+    items = oclgrind.to_device(points)
+    grid = UniformGrid.covering(oclgrind, n, (0, 0, 0), (1, 1, 1), 0.34)
+    grid.build(items, n, stride=4)
+    counts = count_neighbours(oclgrind, grid, items, n, 4, 0, 0.34)
+    np.testing.assert_array_equal(counts, brute_force(points[:, :3], 0.34))
