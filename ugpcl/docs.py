@@ -2,7 +2,7 @@
 
     python -m ugpcl.docs tables   rewrite every generated block (make docs)
     python -m ugpcl.docs check    exit 1 when a generated block is stale (a test runs this)
-    python -m ugpcl.docs images   render docs/img/<scene>.png for every scene (make png)
+    python -m ugpcl.docs images [SCENE ...]   render docs/img/<scene>.png for every (or the named) scene (make png)
 
 A block is the text between ``<!-- BEGIN generated:KIND [SCENE] -->`` and ``<!-- END generated -->``;
 KIND is ``scenes`` (the table of every scene), ``keys`` (one scene's keys), ``all-keys`` or ``params``.
@@ -108,7 +108,7 @@ def tables(check: bool = False) -> int:
     return 0
 
 
-def images() -> int:
+def images(names: list[str] | None = None) -> int:
     from viewer.offscreen import render_png
 
     from .runtime import Runtime
@@ -117,6 +117,8 @@ def images() -> int:
     out = ROOT / "docs" / "img"
     rows = []
     for name, scene in scenes().items():
+        if names and name not in names:
+            continue
         preview = dict(scene.preview)
         steps = preview.pop("steps", 300)
         sim = scene.create(runtime, 0, **preview)
@@ -137,7 +139,7 @@ def main(argv: list[str] | None = None) -> int:
     if command == "check":
         return tables(check=True)
     if command == "images":
-        return images()
+        return images(argv[1:])
     print(__doc__, file=sys.stderr)
     return 2
 
