@@ -70,8 +70,13 @@ def test_image_and_buffer_paths_agree(runtime):
     buffer = make(runtime, sample="texture", use_images="buffer", tex_width=77, tex_height=64)
     image.step()
     buffer.step()
+    # the buffer path rounds half to even exactly (convert_uchar4_sat_rte); write_imagef may be 0.6 ulp off by the
+    # OpenCL spec (NVIDIA writes 16 for 16.56), so the image path is held to 1 LSB
+    np.testing.assert_array_equal(buffer.state()["tex_a"][0, :, 0], expected_gradient(77, 77))
+    np.testing.assert_array_equal(buffer.state()["tex_b"][:, 0, 0], expected_gradient(64, 77))
     for name in ("tex_a", "tex_b"):
-        np.testing.assert_array_equal(image.state()[name], buffer.state()[name])
+        difference = image.state()[name].astype(int) - buffer.state()[name]
+        assert np.abs(difference).max() <= 1, name
 
 
 @pytest.mark.parametrize("use_images", ["image", "buffer"])
