@@ -3,11 +3,15 @@
 //   1. ForceCS        boid_data -> boid_force: separation/alignment/cohesion against all n boids, streamed through
 //                     __local tiles of SIMULATION_BLOCK_SIZE boids (two barriers per tile, as the book)
 //      ForceCS_naive  the same sums read straight from global memory (reference and benchmark baseline)
+//      ForceCS_grid   the same sums over the boids in the 27 grid cells around each boid (the chapter's summary:
+//                     "a grid would make the neighbour search faster"); the grid comes from grid.cl, built by
+//                     ugpcl.grid.UniformGrid on the positions with cell size = the largest radius
 //   2. IntegrateCS    boid_data, boid_force -> boid_data: wall avoidance, explicit Euler, |velocity| <= max_speed
 // Build defines: SIMULATION_BLOCK_SIZE = work-group size = tile length (book: 256).
 // Differences from the book: n need not be a multiple of the block size (padding work-items run every barrier
 // and write nothing); a rule whose average direction is the zero vector steers by 0 instead of normalize(0) = NaN.
 #include "boid.h"  // Boid {float4 velocity, position}: 32 B; numpy mirror BOID_DTYPE
+#include "grid.h"  // grid_cell_coord, grid_cell_id, grid_item: the sorted-key uniform grid
 
 #ifndef SIMULATION_BLOCK_SIZE
 #error "build with -D SIMULATION_BLOCK_SIZE=<work-group size>"
@@ -125,4 +129,28 @@ __kernel void IntegrateCS(__global Boid* boid_data, const __global float4* boid_
     b.velocity = (float4)(velocity, 0.0f);
     b.position = (float4)(b.position.xyz + velocity * dt, 0.0f);
     boid_data[p_id] = b;
+}
+
+// Cell size >= every radius, so the 3x3x3 cells around a boid hold every neighbour that counts. Neighbours are
+// visited cell by cell (not in index order as above): sums agree with ForceCS up to float rounding.
+__kernel void ForceCS_grid(const __global Boid* boid_data, __global float4* boid_force, int n, RULES_ARGS,
+                           float4 origin, float cell_size, int4 dims, const __global ulong* keys,
+                           const __global int* cell_start, const __global int* cell_end) {
+    const int p_id = get_global_id(0);
+    if (p_id >= n) return;
+    const Rules rules = RULES_INIT;
+    const Boid me = boid_data[p_id];
+    Neighbourhood nb = {(float3)(0.0f), (float3)(0.0f), (float3)(0.0f), 0, 0, 0};
+    const int4 home = grid_cell_coord(me.position.xyz, origin.xyz, cell_size, dims);
+    for (int dz = -1; dz <= 1; dz++)
+        for (int dy = -1; dy <= 1; dy++)
+            for (int dx = -1; dx <= 1; dx++) {
+                const int cell = grid_cell_id(home + (int4)(dx, dy, dz, 0), dims);
+                if (cell < 0) continue;  // beyond the grid's border
+                for (int k = cell_start[cell]; k < cell_end[cell]; k++) {
+                    const Boid other = boid_data[grid_item(keys[k])];
+                    meet(&nb, &rules, me.position.xyz, other.position.xyz, other.velocity.xyz);
+                }
+            }
+    boid_force[p_id] = steering_force(&nb, &rules, me.position.xyz, me.velocity.xyz);
 }

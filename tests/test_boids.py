@@ -135,6 +135,20 @@ def test_tiled_and_naive_agree(runtime, n, seed):
     np.testing.assert_allclose(tiled.state()["force"], naive.state()["force"], rtol=1e-6, atol=1e-6)
 
 
+@pytest.mark.parametrize("start", ["book", "spread", "escaped"])
+def test_grid_variant_matches_all_pairs(runtime, start, seed):
+    n = 1000
+    tiled, grid = make(runtime, n, seed), make(runtime, n, seed, variant="grid")
+    if start != "book":
+        position, velocity = spread_state(n, seed, half_size=4.0 if start == "spread" else 30.0)
+        tiled.set_boids(position, velocity)  # "escaped": many boids outside the box, in the grid's border cells
+        grid.set_boids(position, velocity)
+    tiled.force_cs()
+    grid.force_cs()
+    # the same neighbours, visited in cell order instead of index order: equal up to float rounding of the sums
+    np.testing.assert_allclose(grid.state()["force"], tiled.state()["force"], rtol=1e-4, atol=1e-5)
+
+
 def test_integrate_cs_matches_reference(runtime, seed):
     n = 700
     sim = make(runtime, n, seed)
@@ -274,7 +288,7 @@ def test_initial_state_is_the_books(runtime):
         ({"separate_neighborhood_radius": 0.0}, "separate_neighborhood_radius must be in \\(0.0, inf\\]"),
         ({"max_speed": float("nan")}, "max_speed must be a finite number"),
         ({"simulation_block_size": 100}, "simulation_block_size must be one of"),
-        ({"variant": "grid"}, "variant must be one of tiled\\|naive"),
+        ({"variant": "fast"}, "variant must be one of tiled\\|naive\\|grid"),
         ({"wall_size": (1.0, 2.0)}, "wall_size must be 3 numbers"),
         ({"max_object_num": 2.5}, "max_object_num must be of type int"),
     ],
@@ -350,6 +364,8 @@ def test_view_keys_change_the_simulation(runtime, gl):
     assert sim.params.separate_weight == 3.0
     view.next_variant()
     assert sim.params.variant == "naive"
+    view.next_variant()
+    assert sim.params.variant == "grid"
     assert {k.key for k in view.keys} >= {"[", "]", "+", "-", "1", "2", "3", "tab", "b"}
 
 
@@ -365,3 +381,7 @@ def test_kernels_on_oclgrind(oclgrind, seed):
     naive.set_boids(*spread_state(300, seed, half_size=1.5))
     naive.step()
     np.testing.assert_allclose(sim.state()["position"], naive.state()["position"], rtol=1e-6, atol=1e-6)
+    grid = Simulation(oclgrind, Params(max_object_num=300, variant="grid"), seed)
+    grid.set_boids(*spread_state(300, seed, half_size=1.5))
+    grid.step()  # GridHash, BitonicSortStep, GridFindCellRanges, ForceCS_grid
+    np.testing.assert_allclose(grid.state()["position"], naive.state()["position"], rtol=1e-5, atol=1e-5)

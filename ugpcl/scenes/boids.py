@@ -2,7 +2,8 @@
 
 Kernel order per step: ``ForceCS`` (steering forces against all N boids through ``__local`` tiles) then
 ``IntegrateCS`` (wall avoidance, speed limit, explicit Euler). ``variant=naive`` swaps ForceCS for
-``ForceCS_naive``, the same sums without local memory.
+``ForceCS_naive``, the same sums without local memory; ``variant=grid`` for ``ForceCS_grid``, which visits only
+the boids in the 27 uniform-grid cells around each boid (the chapter's summary suggests it; spec section 9).
 
 Differences from the book: N need not be a multiple of the block size (the book dispatches floor(N/256) groups
 and reads past the buffer otherwise); a rule whose mean direction is the zero vector steers by 0 instead of
@@ -18,6 +19,7 @@ import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
 from ..benchmark import seconds_per_step
+from ..grid import UniformGrid
 from ..runtime import round_up
 from ..scene import Params as BaseParams
 from ..scene import Scene, check_dt, param
@@ -25,6 +27,8 @@ from ..scene import Simulation as BaseSimulation
 
 BOID_DTYPE = np.dtype([("velocity", "<f4", 4), ("position", "<f4", 4)])
 """Mirror of ``Boid`` in clkernels/include/boid.h (32 bytes)."""
+MAX_GRID_CELLS = 1 << 21
+"""Cap on the cells of variant=grid (the book's box with radius 2 needs 16^3 = 4096)."""
 
 INIT_POSITION_RADIUS = 1.0
 """Boids start uniformly inside a ball of this radius (book: Random.insideUnitSphere * 1.0)."""
@@ -62,8 +66,8 @@ class Params(BaseParams):
     """Work-group size = tile length of ForceCS (book: SIMULATION_BLOCK_SIZE); halved if the device cannot run it."""
     object_scale: tuple[float, float, float] = param((0.1, 0.2, 0.5), 0.0, lo_open=True)
     """Scale of the instanced cube drawn per boid, render only (book: ObjectScale)."""
-    variant: str = param("tiled", choices=("tiled", "naive"))
-    """ForceCS flavour: the book's local-memory tiles, or the plain global-memory loop."""
+    variant: str = param("tiled", choices=("tiled", "naive", "grid"))
+    """ForceCS flavour: the book's local-memory tiles, the plain global-memory loop, or the uniform grid."""
 
 
 class Simulation(BaseSimulation):
@@ -80,6 +84,7 @@ class Simulation(BaseSimulation):
         self.program = rt.program("boids", SIMULATION_BLOCK_SIZE=self.block_size)
         self.boid_data = rt.to_device(initial_boids(self.n, self.seed))
         self.boid_force = rt.zeros(self.n, cltypes.float4)
+        self.grid = None  # built on first use by variant=grid
         self.time, self.steps = 0.0, 0
 
     def _fit_block_size(self, wanted: int) -> int:
@@ -112,17 +117,38 @@ class Simulation(BaseSimulation):
         )
 
     def force_cs(self) -> None:
-        """ForceCS (or ForceCS_naive): steering force of every boid against all others."""
-        name = "ForceCS" if self.params.variant == "tiled" else "ForceCS_naive"
+        """ForceCS (ForceCS_naive, ForceCS_grid): steering force of every boid against its neighbours."""
+        variant = self.params.variant
+        name = {"tiled": "ForceCS", "naive": "ForceCS_naive", "grid": "ForceCS_grid"}[variant]
+        grid_args = ()
+        if variant == "grid":
+            grid = self._neighbour_grid()
+            grid.build(self.boid_data, self.n, stride=BOID_DTYPE.itemsize // 4, offset=4)  # floats 4..6: position
+            grid_args = (*grid.geometry_args(), *grid.search_args())
         self.program.kernel(name)(
             self.runtime.queue,
             (round_up(self.n, self.block_size),),
-            (self.block_size,),
+            (self.block_size,) if variant == "tiled" else None,
             self.boid_data.data,
             self.boid_force.data,
             np.int32(self.n),
             *self._rules(),
+            *grid_args,
         )
+
+    def _neighbour_grid(self) -> UniformGrid:
+        """A grid over the wall box with cells as large as the largest radius (coarser if that would need more
+        than MAX_GRID_CELLS cells); boids outside the box fall in its border cells, which keeps the search exact."""
+        p = self.params
+        radius = max(p.separate_neighborhood_radius, p.alignment_neighborhood_radius, p.cohesion_neighborhood_radius)
+        size = np.asarray(p.wall_size, float)
+        cell = max(radius, float(np.cbrt(np.prod(size) / MAX_GRID_CELLS)))
+        key = (tuple(p.wall_center), tuple(size), cell)
+        if self.grid is None or self.grid_key != key:
+            lower = np.asarray(p.wall_center) - size / 2
+            self.grid = UniformGrid.covering(self.runtime, self.n, lower, lower + size, cell)
+            self.grid_key = key
+        return self.grid
 
     def integrate_cs(self, dt: float) -> None:
         """IntegrateCS: wall force, velocity += force*dt (limited to max_speed), position += velocity*dt."""
@@ -200,18 +226,20 @@ FLOCK_WARMUP_STEPS = 300
 
 
 def bench(runtime, sizes=None) -> list[dict]:
-    """ms per step and pair interactions/s (N^2 per step) for each N and ForceCS variant, at the book's start
-    (every boid within every radius of every other: the worst case) and once the flock has spread out."""
+    """ms per step and pair interactions/s (N^2 per step; for the grid too, as the all-pairs work it replaces) for
+    each N and ForceCS variant, at the book's start (every boid within every radius of every other: the worst
+    case) and once the flock has spread out."""
     sizes = sizes or ([16384, 65536] if runtime.is_gpu else [1024, 4096])
     rows = []
     for n in sizes:
-        sims = {v: Simulation(runtime, Params(max_object_num=n, variant=v), seed=0) for v in ("tiled", "naive")}
+        sims = {v: Simulation(runtime, Params(max_object_num=n, variant=v), seed=0) for v in ("tiled", "naive", "grid")}
         for phase in ("start", "flocking"):
             if phase == "flocking":
                 for _ in range(FLOCK_WARMUP_STEPS):
                     sims["tiled"].step()
                 state = sims["tiled"].state()
-                sims["naive"].set_boids(state["position"], state["velocity"])
+                for variant in ("naive", "grid"):
+                    sims[variant].set_boids(state["position"], state["velocity"])
             for variant, sim in sims.items():
                 seconds = seconds_per_step(sim, max_steps=50)
                 rows.append({"N": n, "state": phase, "variant": variant, "ms/step": seconds * 1e3,

@@ -24,7 +24,7 @@ class View(BaseView):
         Key("1", "separation on/off", "toggle_separation"),
         Key("2", "alignment on/off", "toggle_alignment"),
         Key("3", "cohesion on/off", "toggle_cohesion"),
-        Key("tab", "ForceCS variant: tiled / naive", "next_variant"),
+        Key("tab", "ForceCS variant: tiled / naive / grid", "next_variant"),
         Key("b", "wall box on/off", "toggle_box"),
         Key("c", "colour by speed on/off", "toggle_colors"),
     )
@@ -110,7 +110,8 @@ class View(BaseView):
         self._toggle_weight("cohesion_weight")
 
     def next_variant(self) -> None:
-        self.sim.update(variant="naive" if self.sim.params.variant == "tiled" else "tiled")
+        variants = ("tiled", "naive", "grid")
+        self.sim.update(variant=variants[(variants.index(self.sim.params.variant) + 1) % len(variants)])
 
     def toggle_box(self) -> None:
         self.show_box = not self.show_box
