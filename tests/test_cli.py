@@ -23,8 +23,9 @@ def run(capsys, *argv) -> tuple[int, str, str]:
 
 def test_run_boids_writes_the_state_and_params(capsys, tmp_path):
     out = tmp_path / "x.npz"
-    code, _, _ = run(capsys, "run", "boids", "--steps", "1", "--seed", "3", "--set", "max_object_num=1024",
-                     "--out", str(out))
+    code, _, _ = run(
+        capsys, "run", "boids", "--steps", "1", "--seed", "3", "--set", "max_object_num=1024", "--out", str(out)
+    )
     assert code == 0
     data = np.load(out)
     for key in ("position", "velocity", "force"):
@@ -36,16 +37,34 @@ def test_run_boids_writes_the_state_and_params(capsys, tmp_path):
 
 def test_zero_steps_writes_the_initial_state(capsys, tmp_path):
     out = tmp_path / "x.npz"
-    assert run(capsys, "run", "boids", "--steps", "0", "--seed", "5", "--set", "max_object_num=300",
-               "--out", str(out))[0] == 0
+    assert (
+        run(capsys, "run", "boids", "--steps", "0", "--seed", "5", "--set", "max_object_num=300", "--out", str(out))[0]
+        == 0
+    )
     expected = initial_boids(300, 5)
     np.testing.assert_array_equal(np.load(out)["position"], expected["position"][:, :3])
 
 
 def test_every_k_stacks_a_history(capsys, tmp_path):
     out = tmp_path / "h.npz"
-    assert run(capsys, "run", "boids", "--steps", "6", "--every", "3", "--set", "max_object_num=100",
-               "--dt", "0.02", "--out", str(out))[0] == 0
+    assert (
+        run(
+            capsys,
+            "run",
+            "boids",
+            "--steps",
+            "6",
+            "--every",
+            "3",
+            "--set",
+            "max_object_num=100",
+            "--dt",
+            "0.02",
+            "--out",
+            str(out),
+        )[0]
+        == 0
+    )
     data = np.load(out)
     assert data["position_history"].shape == (3, 100, 3) and data["velocity_history"].shape == (3, 100, 3)
     np.testing.assert_allclose(data["time"], [0.0, 0.06, 0.12], atol=1e-6)
@@ -103,8 +122,21 @@ def test_compute_intro_npz_has_the_spec_arrays(capsys, tmp_path):
 @pytest.mark.gl
 def test_run_png_shows_the_flock(capsys, tmp_path, gl):
     png = tmp_path / "boids.png"
-    code, _, _ = run(capsys, "run", "boids", "--steps", "2", "--set", "max_object_num=2048", "--out",
-                     str(tmp_path / "b.npz"), "--png", str(png), "--png-size", "160x120")
+    code, _, _ = run(
+        capsys,
+        "run",
+        "boids",
+        "--steps",
+        "2",
+        "--set",
+        "max_object_num=2048",
+        "--out",
+        str(tmp_path / "b.npz"),
+        "--png",
+        str(png),
+        "--png-size",
+        "160x120",
+    )
     assert code == 0
     pixels = np.asarray(Image.open(png).convert("RGB"))
     assert pixels.shape == (120, 160, 3)
@@ -125,6 +157,10 @@ def test_bench_prints_a_table(capsys):
 
 def test_console_script_runs(tmp_path):
     bin_dir = __import__("pathlib").Path(sys.executable).parent
-    result = subprocess.run([str(bin_dir / "ugpcl"), "run", "boids", "--set", "max_object_num=-3"],
-                            capture_output=True, text=True, timeout=120)
+    result = subprocess.run(
+        [str(bin_dir / "ugpcl"), "run", "boids", "--set", "max_object_num=-3"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert result.returncode == 2 and "max_object_num must be in" in result.stderr

@@ -17,7 +17,9 @@ def make(runtime, **overrides) -> Simulation:
 # {{{ array sample
 
 
-@pytest.mark.parametrize("int_value, after_a, after_b", [(1, [0, 1, 2, 3], [1, 2, 3, 4]), (3, [0, 3, 6, 9], [1, 4, 7, 10])])
+@pytest.mark.parametrize(
+    "int_value, after_a, after_b", [(1, [0, 1, 2, 3], [1, 2, 3, 4]), (3, [0, 3, 6, 9], [1, 4, 7, 10])]
+)
 def test_array_sample_reproduces_the_book(runtime, int_value, after_a, after_b):
     state = make(runtime, sample="array", int_value=int_value).state()  # Start() ran the sample once
     np.testing.assert_array_equal(state["array_after_a"], after_a)
@@ -127,9 +129,12 @@ def test_probe_ids_cover_the_grid(runtime, numthreads, groups):
 
 @pytest.mark.parametrize(
     "overrides, message",
-    [({"tex_width": 0}, "tex_width must be in \\[1, 16384\\], got 0"), ({"groups": 65}, "groups must be in"),
-     ({"use_images": "maybe"}, "use_images must be one of auto\\|image\\|buffer"),
-     ({"local_size": (8, 8, 1)}, "local_size must be 2 numbers")],
+    [
+        ({"tex_width": 0}, "tex_width must be in \\[1, 16384\\], got 0"),
+        ({"groups": 65}, "groups must be in"),
+        ({"use_images": "maybe"}, "use_images must be one of auto\\|image\\|buffer"),
+        ({"local_size": (8, 8, 1)}, "local_size must be 2 numbers"),
+    ],
 )
 def test_bad_parameters_name_the_field(overrides, message):
     with pytest.raises(ValueError, match=message):

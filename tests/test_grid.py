@@ -12,8 +12,17 @@ from ugpcl.runtime import round_up
 def count_neighbours(rt, grid: UniformGrid, items, n: int, stride: int, offset: int, radius: float) -> np.ndarray:
     count = rt.zeros(max(n, 1), np.int32)
     grid.program.kernel("GridCountNeighbours")(
-        rt.queue, (round_up(max(n, 1), 64),), None, items.data, np.int32(stride), np.int32(offset), np.int32(n),
-        np.float32(radius), *grid.geometry_args(), *grid.search_args(), count.data,
+        rt.queue,
+        (round_up(max(n, 1), 64),),
+        None,
+        items.data,
+        np.int32(stride),
+        np.int32(offset),
+        np.int32(n),
+        np.float32(radius),
+        *grid.geometry_args(),
+        *grid.search_args(),
+        count.data,
     )
     return count.get()[:n]
 

@@ -13,8 +13,14 @@ LOCAL = 64
 
 def append_multiples(rt, pool: Pool, n: int, every: int) -> None:
     rt.program("pool").kernel("AppendMultiples")(
-        rt.queue, (round_up(n, LOCAL),), (LOCAL,), pool.counter.data, pool.items.data,
-        np.int32(pool.capacity), np.int32(n), np.int32(every),
+        rt.queue,
+        (round_up(n, LOCAL),),
+        (LOCAL,),
+        pool.counter.data,
+        pool.items.data,
+        np.int32(pool.capacity),
+        np.int32(n),
+        np.int32(every),
     )
 
 

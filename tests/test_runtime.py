@@ -74,8 +74,11 @@ def test_params_parse_set_values_by_type():
     assert Example.parse("count", "7") == 7
     assert Example.parse("size", "3, 4.5") == (3.0, 4.5)
     assert Example.parse("flag", "yes") is True
-    for name, text, message in [("count", "x", "count expects int"), ("size", "1", "size expects float,float"),
-                                ("colour", "1", "unknown parameter 'colour'; valid: count, scale")]:
+    for name, text, message in [
+        ("count", "x", "count expects int"),
+        ("size", "1", "size expects float,float"),
+        ("colour", "1", "unknown parameter 'colour'; valid: count, scale"),
+    ]:
         with pytest.raises(ValueError, match=message):
             Example.parse(name, text)
 

@@ -22,8 +22,11 @@ def display():
     if missing:
         pytest.fail(f"{' and '.join(missing)} not installed: `make system-deps` (Debian: apt-get install xvfb xdotool)")
     read_fd, write_fd = os.pipe()
-    server = subprocess.Popen(["Xvfb", "-displayfd", str(write_fd), "-screen", "0", "1024x768x24", "-nolisten", "tcp"],
-                              pass_fds=[write_fd], stderr=subprocess.DEVNULL)
+    server = subprocess.Popen(
+        ["Xvfb", "-displayfd", str(write_fd), "-screen", "0", "1024x768x24", "-nolisten", "tcp"],
+        pass_fds=[write_fd],
+        stderr=subprocess.DEVNULL,
+    )
     os.close(write_fd)
     with os.fdopen(read_fd) as pipe:
         number = pipe.readline().strip()
@@ -40,8 +43,14 @@ def xdotool(env, *args) -> str:
 def test_view_opens_a_window_and_obeys_keys(display, tmp_path):
     env = {**os.environ, "DISPLAY": display}
     viewer = Path(sys.executable).parent / "ugpcl-view"
-    app = subprocess.Popen([str(viewer), "boids", "--set", "max_object_num=512", "--size", "320x240"], cwd=tmp_path,
-                           env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    app = subprocess.Popen(
+        [str(viewer), "boids", "--set", "max_object_num=512", "--size", "320x240"],
+        cwd=tmp_path,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         window = xdotool(env, "search", "--sync", "--onlyvisible", "--name", "ugpcl")
         assert window, "no ugpcl window appeared"

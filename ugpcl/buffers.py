@@ -82,7 +82,9 @@ class PingPong:
 
 def device_sizeof(runtime: Runtime, type_name: str, header: str) -> int:
     """``sizeof(type_name)`` as the device compiles it with ``#include "header"``: tests assert numpy mirrors."""
-    source = f'#include "{header}"\n__kernel void ugpcl_sizeof(__global int* out) {{ out[0] = (int)sizeof({type_name}); }}'
+    source = (
+        f'#include "{header}"\n__kernel void ugpcl_sizeof(__global int* out) {{ out[0] = (int)sizeof({type_name}); }}'
+    )
     program = cl.Program(runtime.context, source).build(options=[f"-I{INCLUDE_DIR}"])
     out = cla.zeros(runtime.queue, 1, np.int32)
     cl.Kernel(program, "ugpcl_sizeof")(runtime.queue, (1,), None, out.data)

@@ -245,15 +245,24 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"ugpcl {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
-    sub.add_parser("list", help="scenes and what they show", formatter_class=fmt, allow_abbrev=False).set_defaults(func=cmd_list)
+    sub.add_parser("list", help="scenes and what they show", formatter_class=fmt, allow_abbrev=False).set_defaults(
+        func=cmd_list
+    )
     sub.add_parser(
-        "info", help="OpenCL devices, the chosen one and why, HLSL-to-OpenCL mapping", formatter_class=fmt, allow_abbrev=False
+        "info",
+        help="OpenCL devices, the chosen one and why, HLSL-to-OpenCL mapping",
+        formatter_class=fmt,
+        allow_abbrev=False,
     ).set_defaults(func=cmd_info)
-    p = sub.add_parser("params", help="a scene's parameters: default, range, meaning", formatter_class=fmt, allow_abbrev=False)
+    p = sub.add_parser(
+        "params", help="a scene's parameters: default, range, meaning", formatter_class=fmt, allow_abbrev=False
+    )
     p.add_argument("scene")
     p.set_defaults(func=cmd_params)
 
-    p = sub.add_parser("run", help="run a scene headless and write its state to .npz", formatter_class=fmt, allow_abbrev=False)
+    p = sub.add_parser(
+        "run", help="run a scene headless and write its state to .npz", formatter_class=fmt, allow_abbrev=False
+    )
     p.add_argument("scene")
     p.add_argument("--steps", type=int, default=300, help="simulation steps")
     p.add_argument("--seed", type=int, default=0, help="random seed (same seed + device = same result)")

@@ -54,7 +54,7 @@ def keys_table(name: str) -> str:
 
 
 def all_keys() -> str:
-    from viewer.app import SHARED_KEYS, MOUSE_HELP
+    from viewer.app import MOUSE_HELP, SHARED_KEYS
     from viewer.views import view_class
 
     parts = ["Every scene:", "", markdown_table([{"key": f"`{k.key}`", "action": k.help} for k in SHARED_KEYS])]

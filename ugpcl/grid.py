@@ -74,8 +74,16 @@ class UniformGrid:
         buffer = items.data if isinstance(items, cla.Array) else items
         padded = next_power_of_two(max(n, 1))
         self.program.kernel("GridHash")(
-            queue, (round_up(padded, LOCAL_SIZE),), None, buffer, np.int32(stride), np.int32(offset), np.int32(n),
-            np.int32(padded), *self.geometry_args(), self.keys.data,
+            queue,
+            (round_up(padded, LOCAL_SIZE),),
+            None,
+            buffer,
+            np.int32(stride),
+            np.int32(offset),
+            np.int32(n),
+            np.int32(padded),
+            *self.geometry_args(),
+            self.keys.data,
         )
         sort_step = self.program.kernel("BitonicSortStep")
         k = 2
@@ -86,12 +94,21 @@ class UniformGrid:
                 j //= 2
             k *= 2
         self.program.kernel("GridClearCells")(
-            queue, (round_up(self.num_cells, LOCAL_SIZE),), None, self.cell_start.data, self.cell_end.data,
+            queue,
+            (round_up(self.num_cells, LOCAL_SIZE),),
+            None,
+            self.cell_start.data,
+            self.cell_end.data,
             np.int32(self.num_cells),
         )
         if n:
             self.program.kernel("GridFindCellRanges")(
-                queue, (round_up(n, LOCAL_SIZE),), None, self.keys.data, np.int32(n), self.cell_start.data,
+                queue,
+                (round_up(n, LOCAL_SIZE),),
+                None,
+                self.keys.data,
+                np.int32(n),
+                self.cell_start.data,
                 self.cell_end.data,
             )
 

@@ -72,9 +72,21 @@ class ViewerWindow(mglw.WindowConfig):
 
     def _key_names(self) -> dict:
         keys = self.wnd.keys
-        names = {keys.SPACE: "space", keys.TAB: "tab", keys.ESCAPE: "esc", keys.LEFT_BRACKET: "[",
-                 keys.RIGHT_BRACKET: "]", keys.MINUS: "-", keys.EQUAL: "+", keys.UP: "up", keys.DOWN: "down",
-                 keys.LEFT: "left", keys.RIGHT: "right", keys.COMMA: ",", keys.PERIOD: "."}
+        names = {
+            keys.SPACE: "space",
+            keys.TAB: "tab",
+            keys.ESCAPE: "esc",
+            keys.LEFT_BRACKET: "[",
+            keys.RIGHT_BRACKET: "]",
+            keys.MINUS: "-",
+            keys.EQUAL: "+",
+            keys.UP: "up",
+            keys.DOWN: "down",
+            keys.LEFT: "left",
+            keys.RIGHT: "right",
+            keys.COMMA: ",",
+            keys.PERIOD: ".",
+        }
         names.update({getattr(keys, f"NUMBER_{d}"): str(d) for d in range(10)})
         names.update({getattr(keys, c.upper()): c for c in "abcdefghijklmnopqrstuvwxyz"})
         return names

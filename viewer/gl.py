@@ -17,9 +17,18 @@ def register_includes(ctx: moderngl.Context) -> None:
         ctx.includes[path.name] = path.read_text()
 
 
-def load_program(ctx: moderngl.Context, stem: str, *, vertex: str | None = None, fragment: str | None = None,
-                 geometry: str | None = None, tess_control: str | None = None, tess_evaluation: str | None = None,
-                 varyings=(), defines: dict | None = None) -> moderngl.Program:
+def load_program(
+    ctx: moderngl.Context,
+    stem: str,
+    *,
+    vertex: str | None = None,
+    fragment: str | None = None,
+    geometry: str | None = None,
+    tess_control: str | None = None,
+    tess_evaluation: str | None = None,
+    varyings=(),
+    defines: dict | None = None,
+) -> moderngl.Program:
     """Build ``viewer/shaders/<stem>.{vert,frag,geom,tesc,tese}``; each keyword names another stem for that stage,
     and a stage file that does not exist is left out."""
     register_includes(ctx)

@@ -242,8 +242,16 @@ def bench(runtime, sizes=None) -> list[dict]:
                     sims[variant].set_boids(state["position"], state["velocity"])
             for variant, sim in sims.items():
                 seconds = seconds_per_step(sim, max_steps=50)
-                rows.append({"N": n, "state": phase, "variant": variant, "ms/step": seconds * 1e3,
-                             "interactions/s": n * n / seconds, "steps/s": 1.0 / seconds})
+                rows.append(
+                    {
+                        "N": n,
+                        "state": phase,
+                        "variant": variant,
+                        "ms/step": seconds * 1e3,
+                        "interactions/s": n * n / seconds,
+                        "steps/s": 1.0 / seconds,
+                    }
+                )
     return rows
 
 

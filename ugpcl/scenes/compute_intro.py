@@ -94,7 +94,9 @@ class Simulation(BaseSimulation):
         p = self.params
         if not self.use_images:
             return self.runtime.zeros((p.tex_height, p.tex_width, 4), np.uint8)
-        image = cl.create_image(self.runtime.context, cl.mem_flags.READ_WRITE, IMAGE_FORMAT, shape=(p.tex_width, p.tex_height))
+        image = cl.create_image(
+            self.runtime.context, cl.mem_flags.READ_WRITE, IMAGE_FORMAT, shape=(p.tex_width, p.tex_height)
+        )
         zero = np.zeros(4, np.float32)
         cl.enqueue_fill_image(self.runtime.queue, image, zero, origin=(0, 0), region=(p.tex_width, p.tex_height))
         return image

@@ -55,7 +55,10 @@ class View(BaseView):
             self.instances = self.ctx.buffer(reserve=data.nbytes)
             self.vao = self.ctx.vertex_array(
                 self.program,
-                [(self.mesh_vbo, "3f 3f", "in_position", "in_normal"), (self.instances, "4f 4f/i", "in_velocity", "in_offset")],
+                [
+                    (self.mesh_vbo, "3f 3f", "in_position", "in_normal"),
+                    (self.instances, "4f 4f/i", "in_velocity", "in_offset"),
+                ],
                 index_buffer=self.mesh_ibo,
             )
         self.instances.write(data.tobytes())
@@ -75,8 +78,14 @@ class View(BaseView):
 
     def status(self) -> list[str]:
         p = self.sim.params
-        rules = [name for name, w in (("sep", p.separate_weight), ("ali", p.alignment_weight), ("coh", p.cohesion_weight)) if w]
-        return [f"N = {self.sim.n}  ForceCS: {p.variant}  rules: {' '.join(rules) or 'none'}  sep w = {p.separate_weight:g}"]
+        rules = [
+            name
+            for name, w in (("sep", p.separate_weight), ("ali", p.alignment_weight), ("coh", p.cohesion_weight))
+            if w
+        ]
+        return [
+            f"N = {self.sim.n}  ForceCS: {p.variant}  rules: {' '.join(rules) or 'none'}  sep w = {p.separate_weight:g}"
+        ]
 
     # {{{ key actions
 

@@ -73,7 +73,10 @@ class View(BaseView):
             return lines
         if self.mode == "probe" and "probe_global" in state:
             p = self.sim.params
-            lines = [f"numthreads{p.probe_numthreads} x Dispatch{p.probe_groups}", "group      local      global     index"]
+            lines = [
+                f"numthreads{p.probe_numthreads} x Dispatch{p.probe_groups}",
+                "group      local      global     index",
+            ]
             for g, loc, glob, flat in zip(
                 state["probe_group"], state["probe_local"], state["probe_global"], state["probe_flat"], strict=True
             ):
