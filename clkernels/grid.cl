@@ -49,10 +49,10 @@ __kernel void GridClearCells(__global int* cell_start, __global int* cell_end, i
 // Each sorted key that begins a run of its cell writes the run's start; each that ends one writes its end.
 __kernel void GridFindCellRanges(const __global ulong* keys, int n, __global int* cell_start, __global int* cell_end) {
     const int k = get_global_id(0);
-    if (k >= n) return;
+    if (k >= n || keys[k] == GRID_EMPTY_KEY) return;  // empty keys (items a hash kernel left out) sort last
     const int cell = grid_key_cell(keys[k]);
     if (k == 0 || grid_key_cell(keys[k - 1]) != cell) cell_start[cell] = k;
-    if (k == n - 1 || grid_key_cell(keys[k + 1]) != cell) cell_end[cell] = k + 1;
+    if (k == n - 1 || keys[k + 1] == GRID_EMPTY_KEY || grid_key_cell(keys[k + 1]) != cell) cell_end[cell] = k + 1;
 }
 
 __kernel void GridCountNeighbours(const __global float* items, int stride, int offset, int n, float radius,

@@ -15,6 +15,11 @@ from ugpcl.runtime import Runtime  # noqa: E402
 OCLGRIND_REPORT = re.compile(r"Kernel: |data race|Invalid (read|write)|divergence|Uninitiali[sz]ed|Oclgrind -")
 
 
+def pytest_collection_modifyitems(items: list) -> None:
+    """Oclgrind tests first: once Mesa has loaded its LLVM for a GL test, an Oclgrind build crashes the process."""
+    items.sort(key=lambda item: item.get_closest_marker("oclgrind") is None)  # a stable sort keeps file order
+
+
 @pytest.fixture(scope="session")
 def runtime() -> Runtime:
     """The device under test: UGPCL_DEVICE if set (e.g. nvidia on the GPU machine), else PoCL."""

@@ -267,7 +267,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--steps", type=int, default=300, help="simulation steps")
     p.add_argument("--seed", type=int, default=0, help="random seed (same seed + device = same result)")
     p.add_argument("--dt", type=float, default=None, help="time step in seconds (default: the scene's)")
-    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (see `ugpcl params`)")
+    p.add_argument(
+        "--set", action="extend", nargs="+", metavar="NAME=VALUE", help="override parameters (see `ugpcl params`)"
+    )
     p.add_argument("--every", type=int, default=None, metavar="K", help="also keep every K-th state as *_history")
     p.add_argument("--out", default=None, help="output .npz (default: out/SCENE.npz)")
     p.add_argument("--png", default=None, help="also render the final state to this PNG (offscreen, EGL)")

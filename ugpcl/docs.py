@@ -23,7 +23,8 @@ BLOCK = re.compile(r"(<!-- BEGIN generated:([\w-]+)(?: (\w+))? -->\n)(.*?)(<!-- 
 
 
 def chapter_doc(scene) -> Path | None:
-    matches = sorted((ROOT / "docs" / "chapters").glob(f"*-{scene.stem}.md"))
+    chapters = ROOT / "docs" / "chapters"
+    matches = sorted({*chapters.glob(f"*-{scene.stem}.md"), *chapters.glob(f"*-{scene.stem.replace('_', '-')}.md")})
     return matches[0] if matches else None
 
 

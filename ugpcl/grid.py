@@ -69,7 +69,6 @@ class UniformGrid:
         """Sort items 0..n-1 of ``items`` (a float buffer: item i's position starts at float i*stride+offset)."""
         if not 0 <= n <= self.capacity:
             raise ValueError(f"grid: n must be in [0, {self.capacity}], got {n}")
-        self.n = n
         queue = self.runtime.queue
         buffer = items.data if isinstance(items, cla.Array) else items
         padded = next_power_of_two(max(n, 1))
@@ -85,6 +84,13 @@ class UniformGrid:
             *self.geometry_args(),
             self.keys.data,
         )
+        self.sort(n)
+
+    def sort(self, n: int) -> None:
+        """Sort the keys of items 0..n-1 (from GridHash or a chapter's own hash kernel, which fills the slots up to the
+        next power of two with GRID_EMPTY_KEY: they sort last and own no cell) and record each cell's key range."""
+        queue = self.runtime.queue
+        padded = next_power_of_two(max(n, 1))
         sort_step = self.program.kernel("BitonicSortStep")
         k = 2
         while k <= padded:
@@ -101,6 +107,7 @@ class UniformGrid:
             self.cell_end.data,
             np.int32(self.num_cells),
         )
+        self.n = n
         if n:
             self.program.kernel("GridFindCellRanges")(
                 queue,

@@ -29,7 +29,7 @@ SHARED_KEYS = (
     Key("h", "help overlay on/off", "toggle_help"),
     Key("esc", "quit", "quit"),
 )
-MOUSE_HELP = "mouse: drag = orbit (3D) or inject (2D), wheel = zoom"
+MOUSE_HELP = "mouse: left drag = orbit (3D) or the scene's brush (2D), right drag = orbit, wheel = zoom"
 
 
 def key_rows(scene) -> list[tuple[str, str]]:
@@ -39,7 +39,9 @@ def key_rows(scene) -> list[tuple[str, str]]:
 
 def keys_markdown(scene) -> str:
     lines = ["| key | action |", "|---|---|"]
-    lines += [f"| `{key}` | {text} |" for key, text in key_rows(scene)]
+    for key, text in key_rows(scene):
+        text = text.replace("|", r"\|")  # a literal | would end the table cell
+        lines.append(f"| `{key}` | {text} |")
     return "\n".join(lines)
 
 
@@ -89,6 +91,11 @@ class ViewerWindow(mglw.WindowConfig):
         }
         names.update({getattr(keys, f"NUMBER_{d}"): str(d) for d in range(10)})
         names.update({getattr(keys, c.upper()): c for c in "abcdefghijklmnopqrstuvwxyz"})
+        # pyglet's own codes where moderngl-window's constants differ ([ and ] are ASCII there, + and keypad +/-)
+        names.update({ord("["): "[", ord("]"): "]", ord("+"): "+"})
+        for attr, name in (("NUMPAD_ADD", "+"), ("NUMPAD_SUBTRACT", "-"), ("NUM_ADD", "+"), ("NUM_SUBTRACT", "-")):
+            if hasattr(keys, attr):
+                names[getattr(keys, attr)] = name
         return names
 
     # {{{ frame
@@ -142,9 +149,17 @@ class ViewerWindow(mglw.WindowConfig):
                     print(f"ugpcl-view: {err}", file=sys.stderr)
                 return
 
+    def on_mouse_press_event(self, x: int, y: int, button: int) -> None:
+        if button == 1:  # a click without a move already paints/emits/pushes in the 2D scenes
+            w, h = self.wnd.size
+            self.view.on_drag(self.camera, x / w, 1.0 - y / h, 0.0, 0.0)
+
     def on_mouse_drag_event(self, x: int, y: int, dx: int, dy: int) -> None:
         w, h = self.wnd.size
-        self.view.on_drag(self.camera, x / w, 1.0 - y / h, dx / w, -dy / h)
+        if self.wnd.mouse_states.left:
+            self.view.on_drag(self.camera, x / w, 1.0 - y / h, dx / w, -dy / h)
+        else:  # right (or middle) drag always orbits, so a scene whose left drag paints can still be turned
+            self.camera.drag(dx / w * 600, -dy / h * 600)
 
     def on_mouse_release_event(self, x: int, y: int, button: int) -> None:
         self.view.on_release(self.camera)
@@ -188,7 +203,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("scene")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter")
+    parser.add_argument("--set", action="extend", nargs="+", metavar="NAME=VALUE", help="override parameters")
     parser.add_argument("--size", default="1280x720", help="window size WxH")
     parser.add_argument("--keys", action="store_true", help="print the scene's key table (Markdown) and exit")
     args = parser.parse_args(argv)

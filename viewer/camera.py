@@ -11,48 +11,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ugpcl.geometry.transforms import look_at, orthographic, perspective  # noqa: F401 (the views' import place)
+
 
 def gl_bytes(matrix: np.ndarray) -> bytes:
     """A maths-convention matrix as the column-major bytes a GLSL ``mat4`` uniform expects."""
     return np.ascontiguousarray(matrix.T, dtype="f4").tobytes()
-
-
-def perspective(fov_y_degrees: float, aspect: float, near: float, far: float) -> np.ndarray:
-    f = 1.0 / math.tan(math.radians(fov_y_degrees) / 2.0)
-    return np.array(
-        [
-            [f / aspect, 0, 0, 0],
-            [0, f, 0, 0],
-            [0, 0, (far + near) / (near - far), 2 * far * near / (near - far)],
-            [0, 0, -1, 0],
-        ]
-    )
-
-
-def orthographic(left: float, right: float, bottom: float, top: float, near: float = -1.0, far: float = 1.0):
-    return np.array(
-        [
-            [2 / (right - left), 0, 0, -(right + left) / (right - left)],
-            [0, 2 / (top - bottom), 0, -(top + bottom) / (top - bottom)],
-            [0, 0, -2 / (far - near), -(far + near) / (far - near)],
-            [0, 0, 0, 1],
-        ]
-    )
-
-
-def look_at(eye, target, up=(0.0, 1.0, 0.0)) -> np.ndarray:
-    eye, target, up = (np.asarray(v, float) for v in (eye, target, up))
-    forward = target - eye
-    forward /= np.linalg.norm(forward)
-    side = np.cross(forward, up)
-    if np.linalg.norm(side) < 1e-9:  # looking straight up or down: any side vector will do
-        side = np.cross(forward, (0.0, 0.0, 1.0))
-    side /= np.linalg.norm(side)
-    true_up = np.cross(side, forward)
-    view = np.identity(4)
-    view[0, :3], view[1, :3], view[2, :3] = side, true_up, -forward
-    view[:3, 3] = -view[:3, :3] @ eye
-    return view
 
 
 MIRROR_Z = np.diag([1.0, 1.0, -1.0, 1.0])
