@@ -313,8 +313,12 @@ def test_no_nan_from_coincident_particles_or_the_mouse_centre(runtime):
         assert np.isfinite(state[key]).all(), key
 
 
-@pytest.mark.parametrize("variant, search", [("book", "all_pairs"), ("fixed", "grid")])
+@pytest.mark.parametrize("variant, search", [("fixed", "all_pairs"), ("fixed", "grid"), ("book", "all_pairs")])
 def test_long_run_falls_and_spreads_into_a_layer(runtime, variant, search):
+    if variant == "book" and runtime.is_gpu:
+        # The book's ForceCS divides by a spray particle's density ~0: on NVIDIA one such particle was flung 0.5
+        # past a wall here (x < -0.5), on PoCL none. That instability is why variant=fixed is the default.
+        pytest.xfail("variant=book may fling a spray particle through a wall (the book's 0/0 guard is missing)")
     sim = make(runtime, 1024, 0, variant=variant, search=search)
     for _ in range(240):  # 960 sub-steps
         sim.step()

@@ -15,6 +15,9 @@ import pytest
 from helpers import foreground
 from PIL import Image
 
+from ugpcl.scenes import scenes
+from viewer.views import view_class
+
 
 @pytest.fixture
 def display():
@@ -75,3 +78,48 @@ def test_view_opens_a_window_and_obeys_keys(display, tmp_path):
     assert pixels.shape == (240, 320, 3)
     assert foreground(pixels, (0.192, 0.302, 0.475)).mean() > 0.05, "the screenshot shows no boids or overlay"
     assert "wrote out/boids-" in err
+
+
+XDOTOOL_KEYS = {"tab": "Tab", "esc": "Escape", "up": "Up", "down": "Down", "left": "Left", "right": "Right"}
+XDOTOOL_KEYS |= {"[": "bracketleft", "]": "bracketright", "+": "plus", "-": "minus", ",": "comma", ".": "period"}
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("name", sorted(scenes()))
+def test_every_scene_opens_and_takes_every_key(display, tmp_path, name):
+    """Each scene's window opens, survives every key of its table (then H and N) and closes on Esc. A screenshot
+    before the keys shows the window is live (keys sent before its first frame are lost); one after, that it still
+    is."""
+    view_keys = [binding.key for binding in view_class(scenes()[name]).keys]
+    env = {**os.environ, "DISPLAY": display}
+    viewer = Path(sys.executable).parent / "ugpcl-view"
+    app = subprocess.Popen(
+        [str(viewer), name, "--size", "320x240"], cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True
+    )
+
+    def screenshot(count: int) -> None:
+        """Press S every 2 s until ``count`` pictures exist (a window still starting up drops key presses)."""
+        deadline = time.time() + 60
+        while time.time() < deadline and len(list((tmp_path / "out").glob(f"{name}-*.png"))) < count:
+            xdotool(env, "key", "s")
+            time.sleep(2.0)
+
+    try:
+        window = xdotool(env, "search", "--sync", "--onlyvisible", "--name", "ugpcl")
+        assert window, "no ugpcl window appeared"
+        xdotool(env, "windowfocus", "--sync", window.splitlines()[0])
+        screenshot(1)
+        for key in [*view_keys, "h", "n"]:
+            xdotool(env, "key", "--delay", "50", XDOTOOL_KEYS.get(key, key))
+        screenshot(2)
+        xdotool(env, "key", "Escape")
+        assert app.wait(timeout=60) == 0, "Esc did not close the window cleanly"
+    finally:
+        if app.poll() is None:
+            app.kill()
+        _, err = app.communicate()
+    assert "Traceback" not in err, err
+    shots = sorted((tmp_path / "out").glob(f"{name}-*.png"))
+    assert len(shots) >= 2, f"the S key wrote {len(shots)} screenshot(s), not 2; stderr:\n{err}"
+    pixels = np.asarray(Image.open(shots[-1]).convert("RGB")).reshape(-1, 3)
+    assert len(np.unique(pixels, axis=0)) > 8, "the screenshot after the keys is a flat colour"

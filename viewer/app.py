@@ -181,7 +181,9 @@ class ViewerWindow(mglw.WindowConfig):
         self.sim.reset()
 
     def screenshot(self) -> None:
-        path = Path("out") / f"{self.scene.name}-{time.strftime('%Y%m%d-%H%M%S')}.png"
+        now = time.time()  # milliseconds in the name: two presses in one second keep both pictures
+        stamp = time.strftime("%Y%m%d-%H%M%S", time.localtime(now)) + f"-{int(now * 1000) % 1000:03d}"
+        path = Path("out") / f"{self.scene.name}-{stamp}.png"
         save_png(read_pixels(self.wnd.fbo), path)
         print(f"ugpcl-view: wrote {path}", file=sys.stderr)
 
