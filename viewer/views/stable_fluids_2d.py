@@ -21,7 +21,30 @@ MAX_SWEEPS = 4096
 """Top of the . key (gs_iterations doubling)."""
 
 
-class View(BaseView):
+class FluidKeyActions:
+    """Key actions on the 2D fluid's parameters, shared by this view and the tessellation view (its fluid's knobs)."""
+
+    def toggle_density_only(self) -> None:
+        self.sim.update(density_only=not self.sim.params.density_only)
+
+    def next_stroke(self) -> None:
+        self.sim.update(stroke=STROKES[(STROKES.index(self.sim.params.stroke) + 1) % len(STROKES)])
+        self.sim.restart_stroke()
+
+    def more_viscous(self) -> None:
+        self.sim.update(visc=self.sim.params.visc * 2.0)
+
+    def less_viscous(self) -> None:
+        self.sim.update(visc=self.sim.params.visc / 2.0)
+
+    def more_diffusion(self) -> None:
+        self.sim.update(diff=self.sim.params.diff * 2.0)
+
+    def less_diffusion(self) -> None:
+        self.sim.update(diff=self.sim.params.diff / 2.0)
+
+
+class View(FluidKeyActions, BaseView):
     title = "Stable fluids 2D (vol.1 ch.4)"
     background = (1.0, 1.0, 1.0)  # the sample camera clears to solid white
     keys = (
@@ -135,30 +158,11 @@ class View(BaseView):
     def toggle_solver(self) -> None:
         self.sim.update(solver="vol4" if self.sim.params.solver == "vol1" else "vol1")
 
-    def toggle_density_only(self) -> None:
-        self.sim.update(density_only=not self.sim.params.density_only)
-
-    def next_stroke(self) -> None:
-        self.sim.update(stroke=STROKES[(STROKES.index(self.sim.params.stroke) + 1) % len(STROKES)])
-        self.sim.restart_stroke()
-
     def bigger_brush(self) -> None:
         self.sim.update(source_radius=min(1.0, self.sim.params.source_radius * RADIUS_STEP))
 
     def smaller_brush(self) -> None:
         self.sim.update(source_radius=self.sim.params.source_radius / RADIUS_STEP)
-
-    def more_viscous(self) -> None:
-        self.sim.update(visc=self.sim.params.visc * 2.0)
-
-    def less_viscous(self) -> None:
-        self.sim.update(visc=self.sim.params.visc / 2.0)
-
-    def more_diffusion(self) -> None:
-        self.sim.update(diff=self.sim.params.diff * 2.0)
-
-    def less_diffusion(self) -> None:
-        self.sim.update(diff=self.sim.params.diff / 2.0)
 
     def more_sweeps(self) -> None:
         self.sim.update(gs_iterations=min(MAX_SWEEPS, self.sim.params.gs_iterations * 2))

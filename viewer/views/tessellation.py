@@ -6,7 +6,6 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from ugpcl.scenes.stable_fluids_2d import STROKES
 from ugpcl.scenes.tessellation import (
     CAMERA_POSITION,
     LIGHT_INTENSITY,
@@ -20,6 +19,7 @@ from ..camera import FlatCamera, OrbitCamera, look_at, orthographic
 from ..gl import load_program, set_camera, set_uniform
 from . import Key
 from . import View as BaseView
+from .stable_fluids_2d import FluidKeyActions
 
 TEXTURE_UNITS = {"displacement_map": 0, "normal_map": 1, "shadow_map": 2, "solver": 3}
 """Texture units by sampler name (the density inset uses the 2D fluid view's shader and its `solver`)."""
@@ -40,7 +40,7 @@ PATCHES_PER_DRAW = 10
 10 patches make at most 59 530 triangles per call. The primitive query spans all the calls."""
 
 
-class View(BaseView):
+class View(FluidKeyActions, BaseView):
     title = "Tessellation + displacement (vol.4 ch.6)"
     background = (1.0, 1.0, 1.0)  # the scene camera clears to solid white
     keys = (
@@ -313,25 +313,6 @@ class View(BaseView):
 
     def toggle_negative(self) -> None:
         self.sim.update(negative=not self.sim.params.negative)
-
-    def toggle_density_only(self) -> None:
-        self.sim.update(density_only=not self.sim.params.density_only)
-
-    def more_viscous(self) -> None:
-        self.sim.update(visc=self.sim.params.visc * 2.0)
-
-    def less_viscous(self) -> None:
-        self.sim.update(visc=self.sim.params.visc / 2.0)
-
-    def more_diffusion(self) -> None:
-        self.sim.update(diff=self.sim.params.diff * 2.0)
-
-    def less_diffusion(self) -> None:
-        self.sim.update(diff=self.sim.params.diff / 2.0)
-
-    def next_stroke(self) -> None:
-        self.sim.update(stroke=STROKES[(STROKES.index(self.sim.params.stroke) + 1) % len(STROKES)])
-        self.sim.restart_stroke()
 
     def toggle_density(self) -> None:
         self.show_density = not self.show_density
