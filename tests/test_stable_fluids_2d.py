@@ -296,9 +296,10 @@ def test_divergence_corner_typo_is_harmless_after_the_edges(runtime, seed):
     np.testing.assert_array_equal(results["book"], results["fixed"])
 
 
-def test_boundary_kernels_are_exact(runtime, seed):
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_boundary_kernels_are_exact(runtime, seed, variant):
     rng = np.random.default_rng(seed)
-    sim = make(runtime)
+    sim = make(runtime, variant=variant)
     f = {k: v.astype(np.float32) for k, v in random_fields(rng).items()}
     sim.set_fields(**f)
     sim.set_boundary_density()
@@ -407,25 +408,27 @@ def test_max_principle_after_the_brush_stops(runtime, variant):
 
 
 def test_still_brush_paints_a_mirror_symmetric_blot(runtime):
-    for variant in VARIANTS:
-        sim = make(runtime, variant=variant)
+    for variant, density_only in (("fixed", False), ("book", False), ("fixed", True), ("book", True)):
+        sim = make(runtime, variant=variant, density_only=density_only)
         for _ in range(20):
             sim.brush(0.5, 0.5)
             sim.step()
         d = sim.state()["density"]
-        assert d.max() > 0
+        assert d.max() > 0.05 and d[0].max() > 0, "the blot is too faint or never reached the walls: a weak test"
         tol = 1e-6 * d.max()
         np.testing.assert_allclose(d, d[::-1, :], atol=tol)
         np.testing.assert_allclose(d, d[:, ::-1], atol=tol)
         assert not sim.state()["velocity"].any(), "a brush that does not move adds no velocity"
 
 
-def test_horizontal_stroke_is_mirror_symmetric_about_the_midline(runtime):
-    sim = make(runtime, stroke="line")
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_horizontal_stroke_is_mirror_symmetric_about_the_midline(runtime, variant):
+    sim = make(runtime, stroke="line", variant=variant)
     for _ in range(30):
         sim.step()
     v = sim.state()["velocity"]
     tol = 1e-5 * np.abs(v[..., 0]).max()
+    assert np.abs(v[..., 1]).max() > 1000 * tol, "no vertical flow: the odd symmetry of v would hold trivially"
     np.testing.assert_allclose(v[..., 0], v[::-1, :, 0], atol=tol)  # u even under y -> H-1-y
     np.testing.assert_allclose(v[..., 1], -v[::-1, :, 1], atol=tol)  # v odd
 
@@ -467,10 +470,11 @@ def test_long_runs_stay_finite_and_behave_as_documented(runtime):
             assert energy[219] < 0.5 * energy[119], (energy[119], energy[219])
 
 
-def test_reruns_are_bitwise_identical(runtime):
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_reruns_are_bitwise_identical(runtime, variant):
     runs = []
     for _ in range(2):
-        sim = make(runtime, stroke="circle", variant="book")
+        sim = make(runtime, stroke="circle", variant=variant)
         for _ in range(25):
             sim.step()
         runs.append(sim.state())

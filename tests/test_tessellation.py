@@ -17,6 +17,7 @@ from ugpcl.scenes.tessellation import (
     Simulation,
     displace_plane_grid,
     fractional_odd_triangles,
+    frustum_side_planes,
     plane_corners,
     plane_mesh,
     plane_model,
@@ -70,6 +71,24 @@ def bilinear_clamp_ref(texture, u, v):
 def gaussian_density(n: int, center=(0.5, 0.5), sigma=0.12, peak=1.0) -> np.ndarray:
     y, x = (np.mgrid[0:n, 0:n] + 0.5) / n
     return (peak * np.exp(-((x - center[0]) ** 2 + (y - center[1]) ** 2) / (2 * sigma**2))).astype(np.float32)
+
+
+def blob_footprint(density, center, sigma, size, displacement) -> np.ndarray:
+    """(H, W) bool, row 0 at the top: where the scene camera sees the plane within the gaussian blob (density > 1 %
+    of its peak), raised or flat, dilated by 3 pixels."""
+    vertices, _, _ = displace_plane_grid(density, 8, displacement)
+    flat_vertices, _, _ = displace_plane_grid(np.zeros_like(density), 8, displacement)
+    y, x = (np.mgrid[0:81, 0:81]) / 80.0
+    weight = np.exp(-((x - center[0]) ** 2 + (y - center[1]) ** 2) / (2 * sigma**2)).ravel() > 0.01
+    view_m, proj, _ = scene_camera(size[0] / size[1])
+    footprint = np.zeros(size[::-1], bool)
+    for points in (vertices[weight], flat_vertices[weight]):
+        clip = np.c_[points, np.ones(len(points))] @ (proj @ view_m).T
+        px = ((clip[:, 0] / clip[:, 3] + 1) / 2 * size[0]).astype(int)
+        py = ((1 - clip[:, 1] / clip[:, 3]) / 2 * size[1]).astype(int)
+        for cx, cy in zip(px, py, strict=True):
+            footprint[max(cy - 3, 0) : cy + 4, max(cx - 3, 0) : cx + 4] = True
+    return footprint
 
 
 # }}}
@@ -154,13 +173,52 @@ def test_blob_peaks_at_its_centre_and_adds_exactly_f_times_gain(runtime):
     np.testing.assert_allclose(density, f * np.float32(6.0) * np.float32(DT), rtol=1e-7, atol=0)
 
 
-def test_advection_without_velocity_returns_prev_z(runtime, seed):
-    sim = make(runtime, variant="book")
+@pytest.mark.parametrize("variant", ["book", "fixed"])
+def test_advection_without_velocity_returns_prev_z(runtime, seed, variant):
+    sim = make(runtime, variant=variant)
     rng = np.random.default_rng(seed)
     prev = rng.uniform(0, 1, (32, 32, 4)).astype(np.float32)
     sim.fluid.set_fields(prev=prev)
     sim.fluid.advect_density(DT)
     np.testing.assert_array_equal(sim.fluid.state()["density"][1:-1, 1:-1], prev[1:-1, 1:-1, 2])
+
+
+@pytest.mark.parametrize("n", [32, 128])
+def test_boundaries_copy_the_inward_neighbour_and_negate_the_normal_velocity(runtime, seed, n):
+    """Spec 17 section 8.6: after boundary_density every edge cell equals its inward neighbour exactly; after
+    boundary_velocity the normal component is the negated neighbour's, the tangential one the cell's own (the book's
+    rule); corners average their two edge neighbours."""
+    rng = np.random.default_rng(seed)
+    fluid = make(runtime, grid=n, variant="book").fluid
+    velocity = rng.uniform(-1, 1, (n, n, 2)).astype(np.float32)
+    density = rng.uniform(0, 1, (n, n)).astype(np.float32)
+    fluid.set_fields(velocity=velocity, density=density)
+    fluid.set_boundary_density()
+    fluid.set_boundary_velocity()
+    state = fluid.state()
+    d, v = state["density"], state["velocity"]
+    inner = slice(1, -1)
+    np.testing.assert_array_equal(d[1:-1, 1:-1], density[1:-1, 1:-1])  # the interior untouched
+    np.testing.assert_array_equal(v[1:-1, 1:-1], velocity[1:-1, 1:-1])
+    for edge, inward in (
+        ((inner, 0), (inner, 1)),
+        ((inner, -1), (inner, -2)),
+        ((0, inner), (1, inner)),
+        ((-1, inner), (-2, inner)),
+    ):
+        np.testing.assert_array_equal(d[edge], d[inward])
+    np.testing.assert_array_equal(v[inner, 0, 0], -velocity[inner, 1, 0])  # x walls: u negated, v kept
+    np.testing.assert_array_equal(v[inner, -1, 0], -velocity[inner, -2, 0])
+    np.testing.assert_array_equal(v[inner, 0, 1], velocity[inner, 0, 1])
+    np.testing.assert_array_equal(v[inner, -1, 1], velocity[inner, -1, 1])
+    np.testing.assert_array_equal(v[0, inner, 1], -velocity[1, inner, 1])  # y walls: v negated, u kept
+    np.testing.assert_array_equal(v[-1, inner, 1], -velocity[-2, inner, 1])
+    np.testing.assert_array_equal(v[0, inner, 0], velocity[0, inner, 0])
+    np.testing.assert_array_equal(v[-1, inner, 0], velocity[-1, inner, 0])
+    for y, x in ((0, 0), (0, -1), (-1, 0), (-1, -1)):
+        ix, iy = (1 if x == 0 else -2), (1 if y == 0 else -2)
+        np.testing.assert_array_equal(d[y, x], np.float32(0.5) * (d[y, ix] + d[iy, x]))
+        np.testing.assert_array_equal(v[y, x], np.float32(0.5) * (v[y, ix] + v[iy, x]))
 
 
 @pytest.mark.parametrize("variant", ["book", "fixed"])
@@ -181,6 +239,7 @@ def test_book_projection_only_touches_the_walls_and_fixed_sweeps_converge(runtim
     book = make(runtime, variant="book")
     book.fluid.set_fields(velocity=velocity)
     book.fluid.project()  # vol.4: no sweep, p = 0
+    assert not book.fluid.state()["prev"][..., 0].any(), "p must stay 0 without a pressure solve"
     after = book.fluid.state()["velocity"]
     np.testing.assert_array_equal(after[1:-1, 1:-1], velocity[1:-1, 1:-1])
     assert not np.array_equal(after[0], velocity[0])
@@ -195,6 +254,113 @@ def test_book_projection_only_touches_the_walls_and_fixed_sweeps_converge(runtim
         div = (v[1:-1, 2:, 0] - v[1:-1, :-2, 0]) + (v[2:, 1:-1, 1] - v[:-2, 1:-1, 1])
         norms.append(np.linalg.norm(div))
     assert norms[0] > norms[1] > norms[2], norms
+
+
+# }}}
+# {{{ the fluid's kernels one by one (spec 17 section 8.1: random inputs, 32 x 32 and 128 x 128, the scene's values)
+
+
+def smooth_field(rng, n: int, channels: int, amplitude: float, k_max: float) -> np.ndarray:
+    """(n, n, channels): 3 random sine modes per channel of up to k_max radians per cell, peak |value| <= amplitude."""
+    y, x = np.mgrid[0:n, 0:n]
+    out = np.zeros((n, n, channels))
+    for c in range(channels):
+        for _ in range(3):
+            k = rng.uniform(-k_max, k_max, 2)
+            out[..., c] += np.sin(k[0] * x + k[1] * y + rng.uniform(0, 2 * np.pi))
+    return amplitude / 3 * out
+
+
+@pytest.mark.parametrize("n", [32, 128])
+@pytest.mark.parametrize("variant", ["book", "fixed"])
+def test_every_fluid_kernel_matches_numpy_on_random_inputs(runtime, seed, n, variant):
+    """Each kernel of the scene's fluid (the 2D chapter's, with this scene's coefficients) against the 2D chapter's
+    float64 reference, rtol 1e-5, atol 1e-6 (spec 17 section 8.1)."""
+    import test_stable_fluids_2d as ref  # the same kernels: its numpy reference of spec 04 section 4
+
+    rng = np.random.default_rng(seed + n)
+    sim = make(runtime, grid=n, variant=variant)
+    fluid, p = sim.fluid, sim.fluid.params
+    book = variant == "book"
+
+    def check(key, expected, channel=None):
+        actual = fluid.state()[key].astype(np.float64)
+        if channel is not None:
+            actual = actual[..., channel]
+        assert np.allclose(actual, expected, rtol=1e-5, atol=1e-6), first_mismatch(actual, expected, 1e-5, 1e-6)
+
+    def load(**fields):
+        fluid.set_fields(**{k: np.asarray(v, np.float32) for k, v in fields.items()})
+        return {k: np.asarray(v, np.float32).astype(np.float64) for k, v in fields.items()}
+
+    f = load(**{k: v for k, v in ref.random_fields(rng, n, n).items()})
+    fluid.add_source_brush(0.43, 0.58, 0.6, -0.8)
+    check("source", ref.brush_ref(n, n, (0.43, 0.58), (0.6, -0.8), p.source_radius))
+    source = fluid.state()["source"].astype(np.float64)
+    fluid.add_source_velocity(DT)
+    fluid.add_source_density(DT)
+    check("velocity", f["velocity"] + source[..., :2] * p.velocity_coef * DT)
+    check("density", f["density"] + source[..., 2] * p.density_coef * DT)
+    check("prev", source[..., :3] * [p.velocity_coef * DT, p.velocity_coef * DT, p.density_coef * DT], slice(0, 3))
+
+    f = load(**ref.random_fields(rng, n, n))
+    fluid.diffuse_velocity(DT, 1)
+    fluid.diffuse_density(DT, 1)
+    check("velocity", ref.boundary_velocity(ref.diffuse_ref(f["velocity"], f["prev"][..., :2], DT * p.visc * n * n)))
+    check("density", ref.boundary_copy(ref.diffuse_ref(f["density"], f["prev"][..., 2], DT * p.diff * n * n)))
+
+    f = load(**ref.random_fields(rng, n, n))
+    fluid.project_step1()
+    prev = ref.boundary_copy(ref.boundary_copy(ref.project_step1_ref(f["velocity"], f["prev"], book), 1, book), 0)
+    check("prev", prev)
+    fluid.project_step2(1)
+    prev = ref.boundary_copy(ref.project_step2_ref(prev), 0)
+    check("prev", prev)
+    fluid.project_step3()
+    check("velocity", ref.boundary_velocity(ref.project_step3_ref(f["velocity"], prev)))
+
+    # advection: back-traces of up to ~ 4 cells (book: leaving the grid at the walls) into a field that changes by
+    # < 0.1 per cell and fades to 0 at the walls (the zero reads outside). A float32 traced point near x = 127 is only
+    # known to ulp(127) = 7.6e-6 cells, so on white noise any float32 kernel is ~1e-5 off; here that is < 1e-6, while
+    # a wrong tap or weight is off by ~0.01-0.1.
+    dfdt = DT * n
+    y, x = np.mgrid[0:n, 0:n]
+    fade = (np.sin(np.pi * (x + 1) / (n + 1)) * np.sin(np.pi * (y + 1) / (n + 1)))[..., None]
+    f = load(
+        velocity=smooth_field(rng, n, 2, 2.0, 1.5),
+        prev=smooth_field(rng, n, 4, 1.0, 0.08) * fade,
+        source=smooth_field(rng, n, 4, 2.0, 1.5),
+    )
+    fluid.advect_density(DT)
+    check("density", ref.boundary_copy(ref.advect_density_ref(f["velocity"], f["prev"], dfdt, book)))
+    fluid.advect_density_from_ext(DT)
+    check("density", ref.boundary_copy(ref.advect_density_ref(f["source"][..., :2], f["prev"], dfdt, book)))
+    fluid.advect_velocity(DT)
+    check("velocity", ref.boundary_velocity(ref.advect_velocity_ref(f["prev"], dfdt, book)))
+
+
+@pytest.mark.parametrize("variant", ["book", "fixed"])
+def test_whole_fluid_steps_match_numpy_with_the_scenes_values(runtime, variant):
+    """The scene's step (vol.4's stripped solver for book, vol.1's for fixed) against the 2D chapter's reference of
+    the host order: a stroke for 4 frames, then 2 without (prev keeps its leftovers)."""
+    import test_stable_fluids_2d as ref
+
+    sim = make(runtime, variant=variant, stroke="circle", stroke_frames=4)
+    state = sim.fluid.state()
+    expected = {k: state[k].astype(np.float64) for k in ("velocity", "density", "prev", "source")}
+    for frame in range(6):
+        sim.step(DT)
+        brush = sim.fluid.last_brush
+        assert (brush is not None) == (frame < 4)
+        expected = ref.step_ref(expected, sim.fluid.params, brush)
+        state = sim.fluid.state()
+        for key in ("velocity", "density", "prev"):
+            scale = max(np.abs(expected[key]).max(), 1e-3)
+            actual = state[key].astype(np.float64)
+            assert np.allclose(actual, expected[key], rtol=0, atol=1e-5 * scale), first_mismatch(
+                actual, expected[key], 0, 1e-5 * scale
+            )
+    assert expected["density"].max() > 0.01
 
 
 # }}}
@@ -306,7 +472,8 @@ def test_uniform_levels_give_the_fractional_odd_primitive_counts(runtime, gl):
     from viewer.offscreen import frame
 
     _, view, camera = setup_view(runtime, gl, size=(32, 18))
-    for level, per_patch in ((1.0, 1), (2.0, 13), (2.5, 13), (3.0, 13), (5.0, 37), (8.0, 121), (64.0, 5953), (0.0, 0)):
+    levels = ((1.0, 1), (2.0, 13), (2.5, 13), (3.0, 13), (4.0, 37), (5.0, 37), (8.0, 121), (64.0, 5953), (0.0, 0))
+    for level, per_patch in levels:
         view.forced_level = level
         frame((32, 18)).render(view, camera)
         assert view.primitives == 200 * per_patch, f"level {level}"
@@ -333,6 +500,78 @@ def test_a_camera_looking_away_culls_every_patch(runtime, gl):
     assert np.allclose(away.eye(), [0, 0, -10])
     frame((160, 90)).render(view, away)
     assert view.primitives == 0
+
+
+@pytest.mark.gl
+def test_tcs_culls_exactly_the_patches_numpy_culls_for_a_camera_seeing_part_of_the_plane(runtime, gl):
+    """Spec 17 section 8.9 with the frustum cull active on some patches only: the camera moved right and closer, so
+    about a third of the patches lie beyond its left plane by more than the slack. Captured factors (0 = culled)
+    must match numpy's per patch."""
+    from viewer.camera import OrbitCamera
+
+    size = (192, 108)
+    sim, view, _ = setup_view(runtime, gl, size=size, edge_length=2.0)
+    camera = OrbitCamera(target=(3.0, 0.0, 0.0), distance=6.0)
+    camera.aspect = size[0] / size[1]
+    view_proj, eye = camera.projection() @ camera.view(), camera.eye()
+    slack = 1.5 * sim.params.displacement
+    planes = frustum_side_planes(view_proj)
+    distances = np.einsum("tkc,pc->tkp", plane_corners(), planes[:, :3]) + planes[:, 3]
+    deciding = np.abs(distances.max(axis=1) + slack)  # how far each patch's cull decision is from flipping
+    assert deciding.min() > 1e-3, "a patch sits on the cull threshold: float rounding may decide it"
+    capture = Capture(gl, view)
+    _, factors, _ = capture.render(size, camera)
+    expected = factors_ref(plane_corners(), eye, view_proj, size[1], 2.0, sim.params.displacement)
+    culled = expected[:, 3] == 0
+    assert 40 < culled.sum() < 100, culled.sum()
+    np.testing.assert_array_equal(factors[:, 3] == 0, culled)
+    assert np.allclose(factors, expected, rtol=1e-5, atol=1e-5), first_mismatch(factors, expected, 1e-5, 1e-5)
+
+
+_depth_frames: dict = {}
+
+
+def render_depth(gl, view, camera, size) -> np.ndarray:
+    """The view drawn into a single-sample frame with a readable depth texture: window depth (H, W), row 0 at the
+    bottom, 1.0 where nothing was drawn. Frames are kept (see viewer.offscreen.frame)."""
+    if size not in _depth_frames:
+        _depth_frames[size] = gl.framebuffer(
+            color_attachments=[gl.renderbuffer(size, 4)], depth_attachment=gl.depth_texture(size)
+        )
+    fbo = _depth_frames[size]
+    fbo.use()
+    gl.viewport = (0, 0, *size)
+    fbo.clear(*view.background, 1.0, depth=1.0)
+    view.draw(camera)
+    return np.frombuffer(fbo.depth_attachment.read(), np.float32).reshape(size[1], size[0]).copy()
+
+
+@pytest.mark.gl
+def test_depth_of_the_flat_tessellated_plane_is_the_plain_planes_and_a_blob_raises_only_its_footprint(runtime, gl):
+    """Spec 17 section 8.12 on the depth buffers: with zero density the tessellated plane (edge length 2: thousands of
+    triangles) has the depth of the untessellated one within 1e-4 and covers the same pixels; with a blob the depth
+    changes (by more than 1e-4) somewhere, and only inside the blob's projected footprint."""
+    size = (160, 90)
+    sim, view, camera = setup_view(runtime, gl, size=size, edge_length=2.0)
+    tessellated = render_depth(gl, view, camera, size)
+    assert view.primitives > 200 * 13, "the plane was not tessellated"
+    view.forced_level = 1.0
+    plain = render_depth(gl, view, camera, size)
+    assert view.primitives == 200
+    view.forced_level = -1.0
+    covered = plain < 1.0
+    assert 0.5 < covered.mean() < 0.9
+    np.testing.assert_array_equal(tessellated < 1.0, covered)
+    assert np.abs(tessellated - plain).max() <= 1e-4
+    density = gaussian_density(32, (0.3, 0.7), sigma=0.07)
+    sim.fluid.set_fields(density=density)
+    view.upload()
+    raised = render_depth(gl, view, camera, size)[::-1]  # row 0 at the top, as the footprint
+    changed = np.abs(raised - tessellated[::-1]) > 1e-4
+    assert changed.sum() > 100, "the blob did not move the surface"
+    assert (raised[changed] < tessellated[::-1][changed]).all(), "the blob must come towards the camera"
+    footprint = blob_footprint(density, (0.3, 0.7), 0.07, size, sim.params.displacement)
+    assert not (changed & ~footprint).any(), "depth changed outside the blob's footprint"
 
 
 @pytest.mark.gl
@@ -389,19 +628,7 @@ def test_displacement_changes_pixels_only_where_the_density_is(runtime, gl):
     raised = frame(size).render(view, camera).astype(int)
     changed = np.abs(raised - flat_tessellated).sum(-1) > 12
     assert changed.sum() > 100, "no displaced pixels"
-    # where the blob is: project the displaced grid where density > 1 % of its peak, dilate by a few pixels
-    vertices, _, _ = displace_plane_grid(density, 8, view.sim.params.displacement)
-    flat_vertices, _, _ = displace_plane_grid(np.zeros_like(density), 8, view.sim.params.displacement)
-    y, x = (np.mgrid[0:81, 0:81]) / 80.0
-    weight = np.exp(-((x - 0.3) ** 2 + (y - 0.7) ** 2) / (2 * 0.07**2)).ravel() > 0.01
-    view_m, proj, _ = scene_camera(size[0] / size[1])
-    footprint = np.zeros(size[::-1], bool)
-    for points in (vertices[weight], flat_vertices[weight]):
-        clip = np.c_[points, np.ones(len(points))] @ (proj @ view_m).T
-        px = ((clip[:, 0] / clip[:, 3] + 1) / 2 * size[0]).astype(int)
-        py = ((1 - clip[:, 1] / clip[:, 3]) / 2 * size[1]).astype(int)
-        for cx, cy in zip(px, py, strict=True):
-            footprint[max(cy - 3, 0) : cy + 4, max(cx - 3, 0) : cx + 4] = True
+    footprint = blob_footprint(density, (0.3, 0.7), 0.07, size, view.sim.params.displacement)
     assert not (changed & ~footprint).any(), "pixels changed outside the blob's footprint"
 
 

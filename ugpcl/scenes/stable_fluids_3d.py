@@ -106,6 +106,7 @@ class Simulation(BaseSimulation):
         self.density = PingPong.zeros(rt, self.shape, np.float32)
         self.prev = PingPong.zeros(rt, (*self.shape, 4), np.float32)
         self.source = rt.zeros((*self.shape, 4), np.float32)
+        self.no_source = rt.zeros((*self.shape, 4), np.float32)  # what AdvectDensityFromExt reads with no source
         self.solver = rt.zeros((*self.shape, 4), np.float32)
         self.external_source = False
         self.time, self.steps = 0.0, 0
@@ -266,9 +267,11 @@ class Simulation(BaseSimulation):
         self._grid("AdvectDensity", self.velocity.read, self.prev.read, self.density.read, np.float32(dt))
         self.set_boundary_density()
 
-    def advect_density_from_ext(self, dt: float) -> None:
-        """AdvectDensityFromExt: as AdvectDensity, back-traced by source.xyz; SetBoundaryDensity."""
-        self._grid("AdvectDensityFromExt", self.source, self.prev.read, self.density.read, np.float32(dt))
+    def advect_density_from_ext(self, dt: float, source: bool = True) -> None:
+        """AdvectDensityFromExt: as AdvectDensity, back-traced by source.xyz; SetBoundaryDensity. With the source off
+        the original binds no source texture, whose reads are 0: the density stays put (as the 2D scene)."""
+        field = self.source if source else self.no_source
+        self._grid("AdvectDensityFromExt", field, self.prev.read, self.density.read, np.float32(dt))
         self.set_boundary_density()
 
     def draw(self) -> None:
@@ -299,7 +302,7 @@ class Simulation(BaseSimulation):
         self.diffuse_density(dt)
         self.swap_density()
         if self.params.density_only:
-            self.advect_density_from_ext(dt)  # the original sets this kernel up but dispatches AdvectDensity
+            self.advect_density_from_ext(dt, source)  # the original sets this kernel up but dispatches AdvectDensity
         else:
             self.advect_density(dt)
 
