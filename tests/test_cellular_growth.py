@@ -215,8 +215,8 @@ def test_update_particles_matches_reference(runtime, seed, scene_params):
     after = sim.particle_records()
     expected = update_particles_reference(parts, dt, sim.params, book_text=sim.params.book_text)
     alive = parts["alive"] != 0
-    # float32 sums of up to ~30 contact terms against float64: observed ~1e-7 relative
-    for field, rtol, atol in (("radius", 1e-5, 1e-6), ("position", 1e-5, 1e-5), ("velocity", 1e-5, 1e-5)):
+    # float32 sums of up to ~30 contact terms against float64: observed ~1e-7 relative, at most 0.4 of these bounds
+    for field, rtol, atol in (("radius", 1e-5, 1e-6), ("position", 1e-5, 1e-6), ("velocity", 1e-5, 1e-6)):
         actual, wanted = after[field][alive], expected[field][alive]
         mismatch = first_mismatch(actual, wanted, rtol, atol)
         assert np.allclose(actual, wanted, rtol=rtol, atol=atol), f"{field}: {mismatch}"
@@ -427,7 +427,7 @@ def test_emit_is_limited_by_the_pool(runtime):
 
 @pytest.mark.parametrize("book_text", [False, True])
 def test_divide_particles_one_at_a_time(runtime, seed, book_text):
-    count = 32
+    count = 14  # 10 live cells, 6 of them dividable, 4 free slots: the pool runs out before the dividable cells
     sim = particles_only(runtime, count=count, emit_frames=0, book_text=book_text)
     rng = np.random.default_rng(seed)
     parts = np.zeros(count, PARTICLE_DTYPE)
@@ -438,6 +438,7 @@ def test_divide_particles_one_at_a_time(runtime, seed, book_text):
     parts["links"][:10] = 0
     sim.load(parts)
     sim.time = 1.25
+    starved = 0
     for _ in range(8):
         before = sim.particle_records()
         sim.get_dividable_particles()
@@ -445,11 +446,15 @@ def test_divide_particles_one_at_a_time(runtime, seed, book_text):
         live = before[before["alive"] != 0]
         expected_d = int((live["radius"] / live["threshold"] >= 0.95).sum())
         assert dividable == expected_d
+        pool = sim.particle_pool.count()
         made = sim.divide_particles(1)
-        assert made == min(dividable, 1, sim.particle_pool.count() + made)
+        assert made == min(dividable, 1, pool)
+        assert sim.particle_pool.count() == pool - made and sim.fault_count() == 0
         after = sim.particle_records()
         assert after["alive"].sum() == before["alive"].sum() + made
         if not made:
+            starved += dividable > 0 and pool == 0
+            np.testing.assert_array_equal(after, before)  # an empty pool leaves every cell untouched
             continue
         child = int(np.flatnonzero((after["alive"] != 0) & (before["alive"] == 0))[0])
         changed = np.flatnonzero((after != before) & (before["alive"] != 0))
@@ -467,6 +472,7 @@ def test_divide_particles_one_at_a_time(runtime, seed, book_text):
         np.testing.assert_allclose(np.linalg.norm(offset), wanted, rtol=1e-4)
         assert after["links"][child] == 0 and after["alive"][child] == 1
         np.testing.assert_array_equal(after["velocity"][child], 0.0)
+    assert starved >= 2, "the pool should run out while cells are still dividable"
     check_pools(sim)
 
 
@@ -518,20 +524,28 @@ def test_branch_pattern_grows_a_tree(runtime, max_link):
 
 @pytest.mark.parametrize("pattern", ["closed", "branch"])
 def test_parallel_divisions_keep_the_graph_whole(runtime, pattern):
-    """Default max_divide_count: the book's races may lose link updates, but edges are only ever added."""
+    """Default max_divide_count: the book's races may lose link updates, but edges are only ever added. Checked after
+    every Divide."""
     sim = network(runtime, count=1024, pattern=pattern, grow=1.0, divide_interval=0.1)
+    E, burst = 0, 0  # burst: most edges one Divide added (>= 3: several divisions ran at once)
     for _ in range(360):
+        divides = sim.divides
         sim.step()
-    alive, pairs, degree, links = graph(sim)
-    P, E = len(alive), len(pairs)
-    assert P > 100
-    assert union_find_components(sim.count, pairs, alive) == 1
-    if pattern == "branch":
-        assert E == P - 1 and links[alive].sum() <= 2 * E
-    else:
-        assert E >= P
-    check_pools(sim)
-    no_nan(sim)
+        if sim.divides == divides:
+            continue
+        alive, pairs, degree, links = graph(sim)
+        P, burst, E = len(alive), max(burst, len(pairs) - E), len(pairs)
+        assert union_find_components(sim.count, pairs, alive) == 1, f"P = {P}: the graph broke"
+        assert (pairs[:, 0] != pairs[:, 1]).all(), "an edge joins a cell to itself"
+        if pattern == "branch" or P < 3:
+            assert E == P - 1, f"E = {E}, P = {P}"
+        if pattern == "branch":
+            assert links[alive].sum() <= 2 * E
+        elif P >= 3:
+            assert E >= P, f"E = {E}, P = {P}"
+        check_pools(sim)
+        no_nan(sim)
+    assert P > 100 and burst >= 3, (P, burst)
 
 
 def test_network_prototype_counts(runtime):
@@ -694,12 +708,35 @@ def test_closed_ring_picture_is_one_connected_shape(runtime, gl):
     labels, n = ndimage.label(mask, structure=np.ones((3, 3)))
     sizes = np.bincount(labels.ravel())[1:]
     assert 0.02 <= mask.mean() <= 0.6, mask.mean()
-    assert sizes.max() >= 0.97 * mask.sum(), f"{n} components, largest {sizes.max()} of {mask.sum()} pixels"
+    assert n == 1, f"{n} components, largest {sizes.max()} of {mask.sum()} pixels"
     # the fit camera frames the cells: they reach near every border of the frame
     rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
     fills_height = rows[0] < 0.15 * size[1] and rows[-1] > 0.85 * size[1]
     fills_width = cols[0] < 0.15 * size[0] and cols[-1] > 0.85 * size[0]
     assert fills_height or fills_width
+
+
+@pytest.mark.gl
+def test_png_camera_frames_the_cells_or_keeps_the_book_view(runtime, gl):
+    """Headless PNG: the live discs' bounding box + 10 % (the network drifts); camera=book keeps the book's view."""
+    from viewer.views import create_view
+
+    count = 16
+    sim = get("cellular_growth").create(runtime, 0, count=count)
+    parts = np.zeros(count, PARTICLE_DTYPE)
+    parts["position"][[2, 9]] = [(30.0, -4.0), (42.0, 6.0)]  # far outside the book's view around (0, 1)
+    parts["radius"][[2, 9]] = parts["threshold"][[2, 9]] = 0.5
+    parts["alive"][[2, 9]] = 1
+    parts["position"][5] = (-500.0, 500.0)  # a dead slot: ignored
+    sim.load(parts)
+    view = create_view(get("cellular_growth"), gl, sim)
+    reach = 0.5 * sim.params.size  # a disc is radius x size wide on each side
+    lower, upper = np.array([30.0 - reach, -4.0 - reach]), np.array([42.0 + reach, 6.0 + reach])
+    centre, half = (lower + upper) / 2, (upper - lower) / 2 * 1.1
+    want = (centre[0] - half[0], centre[0] + half[0], centre[1] - half[1], centre[1] + half[1])
+    np.testing.assert_allclose(view.png_camera().rect, want, atol=1e-5)
+    sim.update(camera="book")
+    np.testing.assert_allclose(view.png_camera().rect, (-10.0, 10.0, -9.0, 11.0))  # size 10 around (0, 1)
 
 
 @pytest.mark.gl
@@ -785,6 +822,17 @@ def dividable_ring(n: int, count: int):
     return parts, edges
 
 
+def dividable_pair(count: int):
+    """Two dividable cells joined by one edge, links 1: DivideEdgesClosed's triangle branch (fig 4.7)."""
+    parts = np.zeros(count, PARTICLE_DTYPE)
+    parts["position"][:2] = [(0.0, 0.0), (1.0, 0.0)]
+    parts["radius"][:2] = parts["threshold"][:2] = 0.5
+    parts["alive"][:2], parts["links"][:2] = 1, 1
+    edges = np.zeros(count, EDGE_DTYPE)
+    edges[0] = (0, 1, (0.0, 0.0), 1)
+    return parts, edges
+
+
 @pytest.mark.oclgrind
 def test_kernels_on_oclgrind(oclgrind):
     count = 256
@@ -794,7 +842,11 @@ def test_kernels_on_oclgrind(oclgrind):
     assert int(sim.particle_records()["alive"].sum()) == 2
     parts, edges = dividable_ring(6, count)
     sim.load(parts, edges)
-    assert sim.divide() == 1  # DivideEdgesClosed, one work-item (race-free)
+    assert sim.divide() == 1  # DivideEdgesClosed, one work-item (race-free): a child inserted into an edge
+    sim.load(*dividable_pair(count))
+    assert sim.divide() == 1  # DivideEdgesClosed's other branch: the triangle (two edge slots)
+    alive, pairs, degree, links = graph(sim)
+    assert len(alive) == 3 and len(pairs) == 3 and (links[alive] == 2).all()
     sim.update(pattern="branch")
     sim.load(parts, edges)
     assert sim.divide() == 1  # DivideEdgesBranch
