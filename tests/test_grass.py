@@ -163,6 +163,63 @@ def test_grass_expand_matches_reference(runtime, seed, backend):
     np.testing.assert_allclose(means, expected_means, atol=1e-6, rtol=0)  # bilinear lookups of maps in [0, 1]
 
 
+def tilted_mesh(seed: int) -> tuple[dict, np.ndarray, dict]:
+    """A random mesh that is no plane: scattered vertices, per-vertex normals of varying length and direction (the
+    blade grows along their unnormalised mean), UVs beyond [0, 1] (repeat wrapping), small random maps, and three
+    general affine models. The plane field only ever has normals (0, 1, 0) and identical triangles."""
+    rng = np.random.default_rng(seed)
+    n_vertices = 12
+    mesh = {
+        "pos": rng.uniform(-2, 2, (n_vertices, 3)).astype(np.float32),
+        "nrm": (rng.normal(size=(n_vertices, 3)) * [0.4, 1.0, 0.4] + [0.0, 1.0, 0.0]).astype(np.float32),
+        "uv": rng.uniform(-0.5, 1.5, (n_vertices, 2)).astype(np.float32),
+        "tri": np.array([rng.choice(n_vertices, 3, replace=False) for _ in range(10)], np.uint32),
+    }
+    models = np.tile(np.identity(4), (3, 1, 1))
+    models[:, :3, :3] = rng.normal(size=(3, 3, 3))
+    models[:, :3, 3] = rng.normal(size=(3, 3)) * 5
+    maps = {name: rng.uniform(0, 1, (5, 7)) for name in ("height", "rot", "wind")}
+    return mesh, models, maps
+
+
+def tilted_reference(mesh, models, maps, params, time: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """grass_geom on every triangle of every model: world positions (B, 7, 3), colours (B, 7, 4), mean rotations."""
+    samples = [reference_sample(maps[name], mesh["uv"].astype(np.float64)) for name in ("height", "rot", "wind")]
+    pos, col, rot = [], [], []
+    for model in models:
+        for t in mesh["tri"]:
+            v, c = grass_geom(mesh["pos"][t], mesh["nrm"][t], *(s[t] for s in samples), params, time)
+            pos.append(apply(model, v))
+            col.append(c)
+            rot.append(samples[1][t].mean())
+    return np.array(pos), np.array(col), np.array(rot)
+
+
+@pytest.mark.parametrize("backend", ["opencl", "numpy"])
+def test_grass_expand_on_a_tilted_random_mesh(runtime, seed, backend):
+    """The blade grows along the mean of the three vertex normals (not y), its side follows p2 - p0 of each
+    triangle, and the model is a general affine map: a kernel that assumed the flat plane would fail here."""
+    mesh, models, maps = tilted_mesh(seed)
+    params = Params(planes=(1, 1), plane_resolution=1, start_time=3.7, wind_time_scale=1.0, backend=backend)
+    sim = Simulation(runtime, params, seed)
+    sim.set_mesh(mesh, models, maps)
+    state = sim.state()
+    expected_pos, expected_col, expected_rot = tilted_reference(mesh, models, maps, params, 3.7)
+    assert np.abs(expected_rot - 0.5).min() > 1e-4, "a mean rotation this close to 0.5 could round either way"
+    assert 0 < (expected_rot > 0.5).sum() < len(expected_rot), "both sides should occur"
+    assert state["blade_pos"].shape == (3 * 10, 7, 3)
+    # the blades really lean: their normal offsets are far from the plane field's +y
+    lean = expected_pos[:, 6] - expected_pos[:, 0]
+    assert (np.abs(lean[:, [0, 2]]).max(axis=1) > 1.0).all()
+    atol = 1e-5 * params.height  # float32 world coordinates up to ~|100| against float64
+    actual = state["blade_pos"].reshape(-1, 3)
+    assert np.allclose(actual, expected_pos.reshape(-1, 3), atol=atol, rtol=0), first_mismatch(
+        actual, expected_pos.reshape(-1, 3), 0, atol
+    )
+    np.testing.assert_allclose(state["blade_col"], expected_col, atol=1e-6, rtol=0)
+    np.testing.assert_array_equal(state["blade_rot"] > 0.5, expected_rot > 0.5)
+
+
 def test_golden_blade(runtime):
     pos, col = golden(runtime, rot=0.75, wind=0.0)
     third = 1 / 3
@@ -520,14 +577,46 @@ def test_grass_geometry_shader_matches_grass_expand(glr):
 
 
 @pytest.mark.gl
+def test_grass_geometry_shader_matches_the_reference_on_a_tilted_mesh(glr, seed):
+    """Transform feedback of grass.vert/grass.geom on the random tilted mesh (tilted normals, UVs wrapping, three
+    instanced affine models) against the float64 port of the book's geom() and against grass_expand."""
+    from viewer.offscreen import frame
+
+    mesh, models, maps = tilted_mesh(seed)
+
+    def tilted(view):
+        view.sim.set_mesh(mesh, models, maps)
+
+    sim, view, camera, _, primitives = render(
+        glr, "grass", prepare=tilted, planes=(1, 1), start_time=3.7, wind_time_scale=1.0
+    )
+    assert primitives == 5 * 3 * 10, "one 5-triangle strip per triangle per instance"
+    frame((16, 16)).msaa.use()
+    view.set_uniforms(camera)
+    captured = glr.ctx.buffer(reserve=sim.blades * 15 * 7 * 4)
+    view.vao.transform(captured, moderngl.TRIANGLES, vertices=len(mesh["tri"]) * 3, instances=len(models))
+    out = np.frombuffer(captured.read(), "f4").reshape(-1, 7)
+    captured.release()
+    expected_pos, expected_col, _ = tilted_reference(mesh, models, maps, sim.params, 3.7)
+    corners = sim.state()["blade_tris"].ravel()
+    pos, col = expected_pos.reshape(-1, 3)[corners], expected_col.reshape(-1, 4)[corners]
+    atol = 1e-4 * sim.params.height  # as the plane-field transform-feedback test: llvmpipe's float sampling
+    assert np.allclose(out[:, :3], pos, atol=atol, rtol=0), first_mismatch(out[:, :3], pos, 0, atol)
+    np.testing.assert_allclose(out[:, 3:], col, atol=1e-6)
+    kernel = sim.state()["blade_pos"].reshape(-1, 3)[corners]
+    np.testing.assert_allclose(out[:, :3], kernel, atol=atol, rtol=0)
+
+
+@pytest.mark.gl
 def test_opencl_path_draws_the_same_lawn(glr):
     size = (96, 72)
 
     def opencl(view):
         view.next_path()
 
-    _, _, _, gs, _ = render(glr, "grass", size, planes=(2, 2))
+    _, _, _, gs, gs_primitives = render(glr, "grass", size, planes=(2, 2))
     _, view, _, cl, primitives = render(glr, "grass", size, prepare=opencl, planes=(2, 2))
+    assert gs_primitives == 5 * 800, "instanced geometry shader: one 5-triangle strip per triangle of every plane"
     assert view.path == "OpenCL" and primitives == 5 * 800
     a, b = foreground(gs, (0, 0, 0)), foreground(cl, (0, 0, 0))
     assert (a & b).sum() / (a | b).sum() > 0.97

@@ -352,31 +352,48 @@ def test_against_scikit_image_on_the_same_field(runtime, n, shape, t, threshold)
     assert cKDTree(b).query(a)[0].max() < 1e-4 and cKDTree(a).query(b)[0].max() < 1e-4  # same vertex sets
     (area, volume), (their_area, their_volume) = area_and_volume(ours), area_and_volume(theirs)
     # the tables fan some 4-6 sided (non-planar) polygons differently: observed area differences <= 1.2e-6 on the
-    # spheres, 1.0e-3 on the creased kaiware (the issue asks for 1%); volume <= 8e-4
+    # spheres, 1.0e-3 on the creased kaiware (the issue asks for 1%); volume <= 8e-4 (N = 32 spheres-repo; the spec's
+    # 1e-4 holds for Lorensen's table only, whose volumes are the spec's prototype values: test_prototype_values)
     assert abs(area - their_area) / their_area < (1e-5 if shape.startswith("spheres") else 2e-3)
-    assert abs(volume - their_volume) / abs(their_volume) < 2e-3
+    assert abs(volume - their_volume) / abs(their_volume) < 1e-3
 
 
 def test_prototype_values(runtime):
-    """Spec 07 section 8's float64 prototype numbers (triangles, area in grid units)."""
-    for n, shape, t, count, area in [
-        (32, "spheres-repo", 0.0, 544, 174.59),
-        (64, "spheres-repo", 0.0, 2192, 728.48),
-        (64, "spheres-repo", 0.3, 4160, None),
-        (32, "spheres-book", 0.0, 1528, 536.00),
+    """Spec 07 section 8's float64 prototype numbers (triangles, area and |signed volume| in grid units)."""
+    for n, shape, t, count, area, volume in [
+        (32, "spheres-repo", 0.0, 544, 174.59, 151.64),
+        (64, "spheres-repo", 0.0, 2192, 728.48, 1297.39),
+        (64, "spheres-repo", 0.3, 4160, None, None),
+        (32, "spheres-book", 0.0, 1528, 536.00, 836.01),
     ]:
         state = make(runtime, n, shape=shape, time=t).state()
         assert state["tri_count"] == count
         if area is not None:
-            assert abs(area_and_volume((state["tri_pos"] + 0.5) * n)[0] - area) < 0.01
+            ours = area_and_volume((state["tri_pos"].astype(np.float64) + 0.5) * n)
+            assert abs(ours[0] - area) < 0.01
+            # the prototype's volumes are scikit-image's (Lorensen's table): 151.638, 1297.393, 836.014. Our
+            # derived table fans 4-6 sided loops from their smallest edge index, another diagonal of the same
+            # non-planar polygons: the area moves by ~1e-6, the volume by up to 8e-4 (151.519, 1297.150, 835.969)
+            assert abs(ours[1] - volume) / volume < 1e-3
 
 
-def test_vertices_lie_on_the_iso_level(runtime):
-    sim = make(runtime, 32, shape="spheres-repo", time=0.3, threshold=0.47)
-    state = sim.state()
-    grid = (state["tri_pos"].reshape(-1, 3).astype(np.float64) + 0.5) * 32
+@pytest.mark.parametrize(
+    "n, shape, t, threshold",
+    [(32, "spheres-repo", 0.3, 0.47), (32, "spheres-book", 1.1, 0.5), (24, "kaiware", 2.0, 0.45)],
+)
+@pytest.mark.parametrize("path", ["append", "scan"])
+def test_vertices_lie_on_the_iso_level(runtime, n, shape, t, threshold, path):
+    """Every vertex sits on a cell edge where the kernel's own field, interpolated linearly along that edge, equals
+    the threshold. Trilinear interpolation at the vertex is exactly that edge interpolation."""
+    state = make(runtime, n, shape=shape, time=t, threshold=threshold, path=path).state()
+    grid = (state["tri_pos"].reshape(-1, 3).astype(np.float64) + 0.5) * n
+    on_edge = (np.abs(grid - np.round(grid)) < 1e-4).sum(axis=1)
+    assert (on_edge >= 2).all(), "a vertex off the cell edges"
     # on a cell edge the trilinear field is the edge's linear interpolation: threshold up to float32 rounding
-    np.testing.assert_allclose(trilinear(state["field"].astype(np.float64), grid), 0.47, atol=1e-5)
+    level = trilinear(state["field"].astype(np.float64), grid)
+    np.testing.assert_allclose(level, threshold, atol=1e-5)
+    # and the vertex normals are unit length (spec 07: |normal| = 1 +- 1e-4)
+    np.testing.assert_allclose(np.linalg.norm(state["tri_nrm"], axis=-1), 1.0, atol=1e-4)
 
 
 # }}}
