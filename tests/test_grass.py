@@ -10,7 +10,7 @@ from types import SimpleNamespace
 import moderngl
 import numpy as np
 import pytest
-from helpers import first_mismatch, foreground
+from helpers import first_mismatch, foreground, linear_filter_error
 from PIL import Image
 
 from ugpcl.buffers import device_sizeof
@@ -600,7 +600,12 @@ def test_grass_geometry_shader_matches_the_reference_on_a_tilted_mesh(glr, seed)
     expected_pos, expected_col, _ = tilted_reference(mesh, models, maps, sim.params, 3.7)
     corners = sim.state()["blade_tris"].ravel()
     pos, col = expected_pos.reshape(-1, 3)[corners], expected_col.reshape(-1, 4)[corners]
-    atol = 1e-4 * sim.params.height  # as the plane-field transform-feedback test: llvmpipe's float sampling
+    # float sampling (llvmpipe): 1e-4 of the blade height, as the plane-field test. A texture unit with rounded weights
+    # (NVIDIA: 0.007 off here) misreads these steep random maps by up to filter error x texel step; the blade moves
+    # with height, rotation and wind, scaled by the model: bound that by 4 x blade height x the largest model gain
+    steepest = max(np.abs(np.diff(m, axis=a)).max() for m in maps.values() for a in (0, 1))
+    gain = max(np.linalg.norm(model[:3, :3], 2) for model in models)
+    atol = 1e-4 * sim.params.height + linear_filter_error(glr.ctx) * steepest * 4 * sim.params.height * gain
     assert np.allclose(out[:, :3], pos, atol=atol, rtol=0), first_mismatch(out[:, :3], pos, 0, atol)
     np.testing.assert_allclose(out[:, 3:], col, atol=1e-6)
     kernel = sim.state()["blade_pos"].reshape(-1, 3)[corners]
