@@ -31,16 +31,18 @@ class Pool:
         self.items = runtime.zeros(self.capacity, self.dtype)
         self.counter = runtime.zeros(2, np.int32)
 
-    def _counter(self) -> np.ndarray:
-        return self.counter.get()
+    def counts(self) -> tuple[int, int]:
+        """(count, refused) in one device read."""
+        counter = self.counter.get()
+        return int(counter[COUNT]), int(counter[REFUSED])
 
     def count(self) -> int:
         """Items in the pool (CopyCount)."""
-        return int(self._counter()[COUNT])
+        return self.counts()[0]
 
     def refused(self) -> int:
         """Appends refused because the pool was full, since the last ``set_count``/``fill``."""
-        return int(self._counter()[REFUSED])
+        return self.counts()[1]
 
     def set_count(self, n: int) -> None:
         """SetCounterValue: the next append writes slot n; also clears the refused count."""
@@ -59,7 +61,11 @@ class Pool:
 
     def read(self) -> np.ndarray:
         """The pooled items, slots 0..count-1 (their order depends on atomic order: compare as sets)."""
-        return self.items.get()[: self.count()]
+        count = self.count()
+        out = np.empty(count, self.dtype)
+        if count:  # only the live slots cross to the host
+            cl.enqueue_copy(self.runtime.queue, out, self.items.data)
+        return out
 
     def __len__(self) -> int:
         return self.count()

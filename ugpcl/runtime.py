@@ -173,6 +173,21 @@ class Runtime:
             self._programs[key] = self._build(KERNEL_DIR / f"{stem}.cl", defines)
         return self._programs[key]
 
+    def fitted_program(
+        self, stem: str, kernels, wanted: int, define: str | None = None, dims: int = 1, **defines
+    ) -> tuple[int, Program]:
+        """(size, program): the largest halving of ``wanted`` whose work-group (size**dims work-items) every kernel
+        named in ``kernels`` runs with on this device. ``define`` is the build define that carries the size (a
+        kernel's reqd_work_group_size, the book's numthreads): each candidate is built with it."""
+        size = wanted
+        while True:
+            program = self.program(stem, **defines, **({define: size} if define else {}))
+            info = cl.kernel_work_group_info.WORK_GROUP_SIZE
+            limit = min(program.kernel(name).get_work_group_info(info, self.device) for name in kernels)
+            if size**dims <= limit or size == 1:
+                return size, program
+            size //= 2
+
     def _build(self, path: Path, defines: dict) -> Program:
         if not path.exists():
             raise BuildError(f"{path}: no such kernel file")

@@ -61,6 +61,23 @@ class OrbitCamera:
 
 
 @dataclass
+class OrthoCamera(OrbitCamera):
+    """An orbit camera with an orthographic projection of half-height ``half_height`` (Unity's orthographic size);
+    the wheel changes that size."""
+
+    half_height: float = 5.0
+    min_half_width: float = 0.0
+    """Half-width always shown: a narrow window grows the height instead of cropping the sides."""
+
+    def projection(self) -> np.ndarray:
+        h = max(self.half_height, self.min_half_width / self.aspect)
+        return orthographic(-h * self.aspect, h * self.aspect, -h, h, self.near, self.far)
+
+    def zoom(self, steps: float) -> None:
+        self.half_height = float(np.clip(self.half_height * 0.9**steps, 0.1, 500.0))
+
+
+@dataclass
 class FlatCamera:
     """A 2D view of the rectangle ``[x0, x1] x [y0, y1]``, letter-boxed to keep its aspect."""
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -31,3 +33,18 @@ def box_edges(center, size) -> np.ndarray:
             if np.sum(corners[i] != corners[j]) == 1:  # neighbours differ in exactly one axis
                 lines += [c + h * corners[i], c + h * corners[j]]
     return np.array(lines, "f4")
+
+
+def uv_sphere(segments: int = 48, rings: int = 24) -> tuple[np.ndarray, np.ndarray]:
+    """Unit sphere as (position, normal) float32 vertices and int32 triangle indices."""
+    theta = np.linspace(0.0, math.pi, rings + 1)[:, None]  # from the north pole
+    phi = np.linspace(0.0, 2.0 * math.pi, segments + 1)[None, :]
+    points = np.stack(
+        [np.sin(theta) * np.cos(phi), np.cos(theta) * np.ones_like(phi), np.sin(theta) * np.sin(phi)], -1
+    ).reshape(-1, 3)
+    r, s = np.mgrid[0:rings, 0:segments]
+    a = (r * (segments + 1) + s).ravel()
+    b, c, d = a + 1, a + segments + 2, a + segments + 1
+    indices = np.stack([np.stack([a, c, b], 1), np.stack([a, d, c], 1)], 1).reshape(-1)
+    vertices = np.concatenate([points, points], axis=1)  # on a unit sphere the normal is the position
+    return vertices.astype("f4"), indices.astype("i4")

@@ -8,9 +8,9 @@ the 256 rows of triangles are derived, case by case, from first principles:
    of its corners is set.
 2. On each of the cube's 6 faces the cut edges pair up into segments that separate set from unset corners. A face
    with 4 cut edges (set corners on one diagonal) is ambiguous; it is always resolved by the face alone, cutting
-   off each *set* corner (``AMBIGUOUS_FACE_RULE``). Two cells sharing a face see the same four corners, so they
-   draw the same segments there: every mesh is closed (Bourke's table, which inverts cases with more than four set
-   corners instead, can leave holes at such faces).
+   off each *set* corner. Two cells sharing a face see the same four corners, so they draw the same segments
+   there: every mesh is closed (Bourke's table, which inverts cases with more than four set corners instead, can
+   leave holes at such faces).
 3. Each segment is directed so that, seen from outside the cube, the set corners lie on its left; the segments
    then chain into closed loops, and each loop is fanned into triangles from its smallest edge index.
 4. Triangle winding: face normals ``(p1 - p0) x (p2 - p0)`` point toward the set (low, "outside") corners, i.e.
@@ -41,8 +41,6 @@ EDGE_DIRECTION = VERTEX_OFFSET[EDGE_CONNECTION[:, 1]] - VERTEX_OFFSET[EDGE_CONNE
 """offset[b] - offset[a] of edge e (book: edgeDirection)."""
 MAX_TRIANGLES = 5
 """Triangles one cell can make (book: [maxvertexcount(15)] = 3 * 5)."""
-AMBIGUOUS_FACE_RULE = "separate-set"
-"""How a face whose set corners sit on one diagonal is cut: around each set (value <= threshold) corner."""
 
 HEADER = Path(__file__).resolve().parents[2] / "clkernels" / "include" / "marching_cubes_tables.h"
 
@@ -73,11 +71,11 @@ def _edge_index(a: int, b: int) -> int:
     raise ValueError(f"corners {a} and {b} share no edge")
 
 
-def _loops(case: int) -> list[list[int]]:
-    """Closed loops of cut edges for one case (steps 2 and 3 of the module docstring)."""
+def _loops(case: int, faces: list[tuple[list[int], np.ndarray]]) -> list[list[int]]:
+    """Closed loops of cut edges for one case (steps 2 and 3 of the module docstring); ``faces`` from ``_faces``."""
     is_set = [bool(case >> k & 1) for k in range(8)]
     following: dict[int, int] = {}
-    for corners, normal in _faces():
+    for corners, normal in faces:
         inside = [is_set[c] for c in corners]
         cut = [i for i in range(4) if inside[i] != inside[(i + 1) % 4]]  # face edge i joins corners i and i+1
         if len(cut) == 2:
@@ -113,8 +111,9 @@ def _loops(case: int) -> list[list[int]]:
 def build_triangle_table() -> np.ndarray:
     """(256, 16) int8: per case up to 5 triangles as edge-index triples, then -1 (book: triangleConnectionTable)."""
     table = np.full((256, 16), -1, np.int8)
+    faces = _faces()
     for case in range(256):
-        triangles = [(loop[0], loop[i], loop[i + 1]) for loop in _loops(case) for i in range(1, len(loop) - 1)]
+        triangles = [(loop[0], loop[i], loop[i + 1]) for loop in _loops(case, faces) for i in range(1, len(loop) - 1)]
         if len(triangles) > MAX_TRIANGLES:
             raise AssertionError(f"case {case}: {len(triangles)} triangles")
         # winding: the loops circle the set corners counter-clockwise seen from them; fanning keeps that order,
@@ -134,8 +133,6 @@ def edge_flags(triangles: np.ndarray) -> np.ndarray:
 
 TRIANGLE_CONNECTION_TABLE = build_triangle_table()
 CUBE_EDGE_FLAGS = edge_flags(TRIANGLE_CONNECTION_TABLE)
-TRIANGLE_COUNT = (TRIANGLE_CONNECTION_TABLE >= 0).sum(axis=1).astype(np.int32) // 3
-"""Triangles per case (the classify pass of the two-pass path)."""
 
 
 def header_text() -> str:

@@ -15,7 +15,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
 from ..benchmark import seconds_per_step
@@ -80,23 +79,14 @@ class Simulation(BaseSimulation):
     def reset(self) -> None:
         p, rt = self.params, self.runtime
         self.n = p.max_object_num
-        self.block_size = self._fit_block_size(p.simulation_block_size)
-        self.program = rt.program("boids", SIMULATION_BLOCK_SIZE=self.block_size)
+        # largest power of two <= simulation_block_size that the device runs ForceCS with (spec 03 section 5)
+        self.block_size, self.program = rt.fitted_program(
+            "boids", ("ForceCS",), p.simulation_block_size, define="SIMULATION_BLOCK_SIZE"
+        )
         self.boid_data = rt.to_device(initial_boids(self.n, self.seed))
         self.boid_force = rt.zeros(self.n, cltypes.float4)
         self.grid = None  # built on first use by variant=grid
         self.time, self.steps = 0.0, 0
-
-    def _fit_block_size(self, wanted: int) -> int:
-        """Largest power of two <= wanted that the device runs ForceCS with (spec 03 section 5)."""
-        block = wanted
-        while True:
-            program = self.runtime.program("boids", SIMULATION_BLOCK_SIZE=block)
-            kernel = program.kernel("ForceCS")
-            limit = kernel.get_work_group_info(cl.kernel_work_group_info.WORK_GROUP_SIZE, self.runtime.device)
-            if block <= limit or block == 1:
-                return block
-            block //= 2
 
     # {{{ kernels, in the book's order
 

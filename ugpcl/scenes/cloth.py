@@ -117,8 +117,11 @@ class Simulation(BaseSimulation):
     def reset(self) -> None:
         p, rt = self.params, self.runtime
         self.width, self.height = p.res
-        self.block = self._fit_block(p.num_threads_xy)
-        self.program = rt.program("cloth", NUM_THREADS_XY=self.block, FIX_NAN=p.variant == "fixed")
+        fix_nan = p.variant == "fixed"
+        # largest edge <= num_threads_xy whose square the device runs CSSimulation with (spec pitfall 9)
+        self.block, self.program = rt.fitted_program(
+            "cloth", ("CSSimulation",), p.num_threads_xy, define="NUM_THREADS_XY", dims=2, FIX_NAN=fix_nan
+        )
         shape = (self.height, self.width, 4)
         self.pos = PingPong.zeros(rt, shape, np.float32)  # book: _posBuff[0] (.read), _posBuff[1] (.write)
         self.prev = PingPong.zeros(rt, shape, np.float32)  # book: _posPrevBuff
@@ -127,16 +130,6 @@ class Simulation(BaseSimulation):
         self.sphere_time = 0.0  # the collider's clock: stops while sphere_motion is off
         self.sphere_params = self.collider(self.sphere_time)
         self.cs_init()
-
-    def _fit_block(self, wanted: int) -> int:
-        """Largest edge <= wanted whose square the device runs CSSimulation with (spec pitfall 9)."""
-        block = wanted
-        while True:
-            kernel = self.runtime.program("cloth", NUM_THREADS_XY=block, FIX_NAN=True).kernel("CSSimulation")
-            limit = kernel.get_work_group_info(cl.kernel_work_group_info.WORK_GROUP_SIZE, self.runtime.device)
-            if block * block <= limit or block == 1:
-                return block
-            block //= 2
 
     def _global_size(self) -> tuple[int, int]:
         return (round_up(self.width, self.block), round_up(self.height, self.block))
@@ -166,11 +159,10 @@ class Simulation(BaseSimulation):
         cl.enqueue_copy(rt.queue, self.pos.write.data, self.pos.read.data)
         cl.enqueue_copy(rt.queue, self.prev.write.data, self.prev.read.data)
 
-    def cs_simulation(self, dt: float | None = None) -> None:
-        """One CSSimulation launch (substep of dt, default timestep / substeps) against the current collider,
-        then swap both ping-pong pairs."""
+    def cs_simulation(self) -> None:
+        """One CSSimulation launch (a substep of timestep / substeps) against the current collider, then swap both
+        ping-pong pairs."""
         p, rt = self.params, self.runtime
-        dt = p.substep_dt if dt is None else dt
         gravity = np.asarray(p.gravity) * (p.mass if p.physical_gravity else 1.0)
         self.program.kernel("CSSimulation")(
             rt.queue,
@@ -187,7 +179,7 @@ class Simulation(BaseSimulation):
             np.float32(p.stiffness),
             np.float32(p.damp),
             np.float32(1.0 / p.mass),
-            np.float32(dt),
+            np.float32(p.substep_dt),
             np.int32(p.sphere),
             cltypes.make_float4(*self.sphere_params),
         )

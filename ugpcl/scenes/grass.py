@@ -25,7 +25,7 @@ import pyopencl.cltypes as cltypes
 from ..benchmark import seconds_per_call
 from ..geometry import grass as geo
 from ..geometry.mesh_io import write_mesh
-from ..geometry.transforms import euler_matrix
+from ..geometry.transforms import euler_matrix, translation
 from ..scene import Params as BaseParams
 from ..scene import Scene, check_dt, param
 from ..scene import Simulation as BaseSimulation
@@ -55,6 +55,8 @@ GRASS_PARAMS_DTYPE = np.dtype(
     + [("top_color", "<f4", 4), ("bottom_color", "<f4", 4)]
 )
 """Mirror of ``GrassParams`` in clkernels/include/grass.h (96 bytes)."""
+PARAM_FIELDS = tuple(name for name in GRASS_PARAMS_DTYPE.names if name not in ("time", "pad0", "pad1"))
+"""GrassParams fields copied from Params under the same name (also grass.geom's uniforms)."""
 MAX_BLADES = 1 << 22
 """Cap on planes x triangles per plane: 4M blades = 28M vertices, ~800 MB of positions and colours."""
 
@@ -126,9 +128,8 @@ class Params(BaseParams):
     def block(self, time: float) -> np.ndarray:
         """The GrassParams record the kernel reads, for shader time ``time``."""
         record = np.zeros(1, GRASS_PARAMS_DTYPE)
-        for name in GRASS_PARAMS_DTYPE.names:
-            if name not in ("time", "pad0", "pad1"):
-                record[name] = getattr(self, name)
+        for name in PARAM_FIELDS:
+            record[name] = getattr(self, name)
         record["time"] = time
         return record
 
@@ -283,7 +284,7 @@ class PyramidSimulation(BaseSimulation):
     def reset(self) -> None:
         rotation = euler_matrix(*QUAD_EULER) @ np.diag([QUAD_SCALE, QUAD_SCALE, QUAD_SCALE, 1.0])
         self.models = np.array(
-            [geo.translation(-QUAD_X, 0.0, 0.0) @ rotation, geo.translation(QUAD_X, 0.0, 0.0) @ rotation], np.float32
+            [translation(-QUAD_X, 0.0, 0.0) @ rotation, translation(QUAD_X, 0.0, 0.0) @ rotation], np.float32
         )
         self.program = self.runtime.program("grass")
         self.time, self.steps = 0.0, 0

@@ -91,11 +91,6 @@ class Params(BaseParams):
     emission_intensity: float = param(0.0, 0.0)
     """Emission multiplier, render only (book: EmissionIntensity)."""
 
-    @property
-    def scale(self) -> float:
-        """Cell size in object units (book: renderScale = 1 / segmentNum)."""
-        return 1.0 / self.segment_num
-
 
 def field_constants(shape: str, t: float) -> tuple[tuple[float, float, float], float]:
     """(three sphere radii, kaiware twist) at time t, float64: the only places t enters the field."""
@@ -151,6 +146,11 @@ class Simulation(BaseSimulation):
             np.float32(twist),
         )
 
+    def _cell_args(self) -> tuple:
+        """The leading arguments of both triangle writers (mc_polygonize_append, mc_generate)."""
+        p = self.params
+        return (self.field.data, np.float32(p.threshold), np.int32(NORMALS[p.normals]), *self._field_args())
+
     # {{{ kernels, in the book's order
 
     def mc_field(self) -> None:
@@ -167,10 +167,7 @@ class Simulation(BaseSimulation):
             self.runtime.queue,
             (self.cells,),
             None,
-            self.field.data,
-            np.float32(self.params.threshold),
-            np.int32(NORMALS[self.params.normals]),
-            *self._field_args(),
+            *self._cell_args(),
             pool.items.data,
             pool.counter.data,
             np.int32(pool.capacity if capacity is None else capacity),
@@ -221,10 +218,7 @@ class Simulation(BaseSimulation):
             self.runtime.queue,
             (self.cells,),
             None,
-            self.field.data,
-            np.float32(self.params.threshold),
-            np.int32(NORMALS[self.params.normals]),
-            *self._field_args(),
+            *self._cell_args(),
             self.cell_ntri.data,
             self.cell_off.data,
             self.pool.items.data,
@@ -243,20 +237,21 @@ class Simulation(BaseSimulation):
         self.overflowed = False
         if self.params.path == "append":
             self.mc_polygonize_append()
-            count, refused = self.pool.count(), self.pool.refused()
+            count, refused = self.pool.counts()
             if refused:  # the counter clamped at capacity: count + refused triangles were wanted
                 self._grow(count + refused)
                 self.mc_polygonize_append()
-                assert self.pool.refused() == 0
+                count, refused = self.pool.counts()
+                assert refused == 0
         else:
             self.mc_classify()
-            total = self.scan(self.cell_ntri, self.cell_off, self.cells)
-            if total > self.pool.capacity:
-                self._grow(total)
+            count = self.scan(self.cell_ntri, self.cell_off, self.cells)
+            if count > self.pool.capacity:
+                self._grow(count)
             self.mc_generate()
-            self.pool.set_count(total)
+            self.pool.set_count(count)
         self.frame_times.append(self.field_time)
-        self.frame_counts.append(self.pool.count())
+        self.frame_counts.append(count)
 
     def remesh(self) -> None:
         """Field and mesh at the current field time (after a parameter change, without advancing time)."""

@@ -10,8 +10,6 @@ is why the cloth is drawn without culling and lit on whichever side faces the ey
 
 from __future__ import annotations
 
-import math
-
 import moderngl
 import numpy as np
 
@@ -19,6 +17,7 @@ from ugpcl.scenes.cloth import DEBUG_SCENE, MAIN_SCENE, grid_triangles, spring_p
 
 from ..camera import OrbitCamera
 from ..gl import Lines, load_program, set_camera, set_uniform
+from ..meshes import uv_sphere
 from . import Key
 from . import View as BaseView
 
@@ -45,21 +44,6 @@ BUFFERS = ("pos", "pos_write", "prev", "prev_write", "normal")
 """The thumbnails of the G key, left to right (book: _posBuff[0], [1], _posPrevBuff[0], [1], _normBuff)."""
 
 
-def uv_sphere(segments: int = 48, rings: int = 24) -> tuple[np.ndarray, np.ndarray]:
-    """Unit sphere as (position, normal) float32 vertices and int32 triangle indices."""
-    theta = np.linspace(0.0, math.pi, rings + 1)[:, None]  # from the north pole
-    phi = np.linspace(0.0, 2.0 * math.pi, segments + 1)[None, :]
-    points = np.stack(
-        [np.sin(theta) * np.cos(phi), np.cos(theta) * np.ones_like(phi), np.sin(theta) * np.sin(phi)], -1
-    ).reshape(-1, 3)
-    r, s = np.mgrid[0:rings, 0:segments]
-    a = (r * (segments + 1) + s).ravel()
-    b, c, d = a + 1, a + segments + 2, a + segments + 1
-    indices = np.stack([np.stack([a, c, b], 1), np.stack([a, d, c], 1)], 1).reshape(-1)
-    vertices = np.concatenate([points, points], axis=1)  # on a unit sphere the normal is the position
-    return vertices.astype("f4"), indices.astype("i4")
-
-
 class View(BaseView):
     title = "GPU cloth (vol.4 ch.3)"
     keys = (
@@ -84,7 +68,7 @@ class View(BaseView):
         self.surface = load_program(ctx, "cloth")
         self.sphere_program = load_program(ctx, "cloth", vertex="cloth_sphere")
         self.points = load_program(ctx, "cloth_points")
-        self.thumbnail = load_program(ctx, "cloth_buffer")
+        self.thumbnail = load_program(ctx, "cloth_buffer", vertex="overlay")  # overlay.vert: a quad placed by rect
         vertices, indices = uv_sphere()
         self.sphere_vbo = ctx.buffer(vertices.tobytes())
         self.sphere_ibo = ctx.buffer(indices.tobytes())

@@ -1,18 +1,16 @@
 """Geometry-shader views (vol.1 ch.6): the grass field and the pyramid quad, drawn through their GLSL geometry
-shaders (viewer/shaders/grass.*, grass_pyramid.*). Tab switches to drawing what the OpenCL kernels emitted instead
-(grass_expand / pyramid_expand, copied through the host), which should look the same."""
+shaders (viewer/shaders/grass.*, grass_pyramid.* with grass.frag). Tab switches to drawing what the OpenCL kernels
+emitted instead (grass_expand / pyramid_expand, copied through the host), which should look the same."""
 
 from __future__ import annotations
-
-from dataclasses import dataclass
 
 import moderngl
 import numpy as np
 
 from ugpcl.geometry.grass import BLADE_VERTICES, strip_triangles
-from ugpcl.scenes.grass import GRASS_PARAMS_DTYPE, MAX_BLADES
+from ugpcl.scenes.grass import PARAM_FIELDS
 
-from ..camera import OrbitCamera, orthographic
+from ..camera import OrbitCamera, OrthoCamera
 from ..gl import load_program, set_camera, set_uniform
 from . import Key
 from . import View as BaseView
@@ -23,29 +21,10 @@ MAP_OF_SAMPLER = {"height_map": "height", "rotation_map": "rot", "wind_map": "wi
 GS_VARYINGS = ("g_world", "g_color")
 """Geometry-shader outputs that transform feedback can capture (the tests compare them with the kernels)."""
 PATHS = ("geometry shader", "OpenCL")
-GRASS_UNIFORMS = tuple(name for name in GRASS_PARAMS_DTYPE.names if name not in ("time", "pad0", "pad1"))
-"""Params fields that are uniforms of grass.geom under the same name."""
 FAST_WIND_TIME_SCALE = 1.0
 """The `,` key's alternative to the faithful 1/20: the sway then has a 6.3 s period instead of 126 s."""
 PLAIN_QUAD_COLOR = (0.5, 0.5, 0.5, 1.0)
 """Fig. 6.2's quad before the geometry shader: flat grey."""
-
-
-@dataclass
-class OrthoCamera(OrbitCamera):
-    """An orbit camera with an orthographic projection of half-height ``half_height`` (Unity's orthographic size);
-    the wheel changes that size."""
-
-    half_height: float = 5.0
-    min_half_width: float = 0.0
-    """Half-width always shown: a narrow window grows the height instead of cropping the sides."""
-
-    def projection(self) -> np.ndarray:
-        h = max(self.half_height, self.min_half_width / self.aspect)
-        return orthographic(-h * self.aspect, h * self.aspect, -h, h, self.near, self.far)
-
-    def zoom(self, steps: float) -> None:
-        self.half_height = float(np.clip(self.half_height * 0.9**steps, 0.1, 500.0))
 
 
 def book_grass_camera() -> OrbitCamera:
@@ -80,16 +59,16 @@ class _GeometryShaderView(BaseView):
         self.ctx.front_face = "ccw"
         self.ctx.wireframe = False
 
-    def _upload_strips(self, positions: np.ndarray, colors: np.ndarray, triangles: np.ndarray) -> None:
-        """The kernel's world-space vertices and colours, interleaved, plus their triangle list."""
+    def _upload_strips(self, positions: np.ndarray, colors: np.ndarray, triangles) -> None:
+        """The kernel's world-space vertices and colours, interleaved; ``triangles()`` gives their triangle list,
+        called only when the vertex count changes (the list depends on nothing else)."""
         data = np.concatenate([positions.reshape(-1, 3), colors.reshape(-1, 4)], axis=1).astype("f4")
-        indices = np.ascontiguousarray(triangles, "u4")
-        if self.strip_vbo is None or self.strip_vbo.size != data.nbytes or self.strip_ibo.size != indices.nbytes:
+        if self.strip_vbo is None or self.strip_vbo.size != data.nbytes:
             for buffer in (self.strip_vbo, self.strip_ibo):
                 if buffer is not None:
                     buffer.release()
             self.strip_vbo = self.ctx.buffer(reserve=data.nbytes)
-            self.strip_ibo = self.ctx.buffer(indices.tobytes())
+            self.strip_ibo = self.ctx.buffer(np.ascontiguousarray(triangles(), "u4").tobytes())
             self.strip_vao = self.ctx.vertex_array(
                 self.strip_program,
                 [(self.strip_vbo, "3f 4f", "in_position", "in_color")],
@@ -157,7 +136,7 @@ class GrassView(_GeometryShaderView):
             self._upload_mesh(sim.mesh, sim.models)
         if self.path == "OpenCL":
             blades = sim.blades_state()
-            self._upload_strips(blades["blade_pos"], blades["blade_col"], strip_triangles(sim.blades))
+            self._upload_strips(blades["blade_pos"], blades["blade_col"], lambda: strip_triangles(sim.blades))
 
     def _upload_maps(self, maps: dict[str, np.ndarray]) -> None:
         for texture in self.textures.values():
@@ -195,7 +174,7 @@ class GrassView(_GeometryShaderView):
         """Camera, the Params the geometry shader reads, the shader time and the three maps."""
         p = self.sim.params
         set_camera(self.program, camera)
-        for name in GRASS_UNIFORMS:
+        for name in PARAM_FIELDS:
             set_uniform(self.program, name, getattr(p, name))
         set_uniform(self.program, "time", float(self.sim.shader_time))
         for sampler, unit in TEXTURE_UNITS.items():
@@ -255,9 +234,10 @@ class GrassView(_GeometryShaderView):
         self.sim.update(wind_time_scale=FAST_WIND_TIME_SCALE if fast else faithful)
 
     def _resize(self, planes: tuple[int, int], resolution: int) -> None:
-        blades = planes[0] * planes[1] * 2 * resolution**2
-        if blades <= MAX_BLADES:
+        try:
             self.sim.update(planes=planes, plane_resolution=resolution)
+        except ValueError:  # Params.check: more than MAX_BLADES blades; keep the current field
+            pass
 
     def denser(self) -> None:
         self._resize(self.sim.params.planes, min(1000, self.sim.params.plane_resolution * 2))
@@ -288,8 +268,8 @@ class PyramidView(_GeometryShaderView):
 
     def __init__(self, ctx: moderngl.Context, sim):
         super().__init__(ctx, sim)
-        self.program = load_program(ctx, "grass_pyramid", varyings=GS_VARYINGS)
-        self.flat_program = load_program(ctx, "grass_flat", fragment="grass_pyramid")
+        self.program = load_program(ctx, "grass_pyramid", fragment="grass", varyings=GS_VARYINGS)
+        self.flat_program = load_program(ctx, "grass_flat", fragment="grass")
         self.mesh = None
 
     def make_camera(self):
@@ -322,8 +302,8 @@ class PyramidView(_GeometryShaderView):
             self.mesh = sim.mesh
         if self.path == "OpenCL":
             state = sim.state()
-            triangles = np.arange(state["pyr_pos"].shape[0] * state["pyr_pos"].shape[1]).reshape(-1, 3)
-            self._upload_strips(state["pyr_pos"], state["pyr_col"], triangles)
+            vertices = state["pyr_pos"].shape[0] * state["pyr_pos"].shape[1]  # separate triangles, in order
+            self._upload_strips(state["pyr_pos"], state["pyr_col"], lambda: np.arange(vertices).reshape(-1, 3))
 
     def set_uniforms(self, camera) -> None:
         p = self.sim.params

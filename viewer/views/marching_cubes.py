@@ -239,7 +239,7 @@ class View(BaseView):
             source = "analytic" if self.field_source == 0 else "texture"
             drawn = f"geometry shader ({source} field): {self.gs_triangles} triangles"
         else:
-            drawn = f"OpenCL {p.path}: {self.sim.pool.count()} triangles"
+            drawn = f"OpenCL {p.path}: {self.sim.frame_counts[-1]} triangles"  # recorded by polygonize: no read
         return [
             f"N = {self.sim.n}  t = {self.sim.field_time:.2f} s{'' if p.animate else ' (still)'}  "
             f"threshold = {p.threshold:.2f}  {p.shape}  normals: {p.normals}",
