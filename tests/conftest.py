@@ -50,7 +50,7 @@ def seed() -> int:
 @pytest.fixture(scope="session")
 def gl_context(runtime):
     """One EGL context for the session, created after OpenCL (see ugpcl.runtime.all_devices)."""
-    from viewer.offscreen import context
+    from ugpcl.viewer.offscreen import context
 
     return context()
 

@@ -312,8 +312,8 @@ def test_bad_dt_is_refused(runtime):
 
 @pytest.mark.gl
 def test_view_draws_boids_where_they_are(runtime, gl):
-    from viewer.offscreen import frame
-    from viewer.views import create_view
+    from ugpcl.viewer.offscreen import frame
+    from ugpcl.viewer.views import create_view
 
     scene = get("boids")
     rng = np.random.default_rng(3)
@@ -351,7 +351,7 @@ def test_view_draws_boids_where_they_are(runtime, gl):
 
 @pytest.mark.gl
 def test_view_keys_change_the_simulation(runtime, gl):
-    from viewer.views import create_view
+    from ugpcl.viewer.views import create_view
 
     scene = get("boids")
     sim = scene.create(runtime, max_object_num=512)

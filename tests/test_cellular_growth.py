@@ -642,8 +642,8 @@ def test_bench_rows(runtime):
 
 
 def render(runtime, gl, scene_name, sim, size=(160, 120), camera=None):
-    from viewer.offscreen import frame
-    from viewer.views import create_view
+    from ugpcl.viewer.offscreen import frame
+    from ugpcl.viewer.views import create_view
 
     view = create_view(get(scene_name), gl, sim)
     camera = camera or view.png_camera()
@@ -719,7 +719,7 @@ def test_closed_ring_picture_is_one_connected_shape(runtime, gl):
 @pytest.mark.gl
 def test_png_camera_frames_the_cells_or_keeps_the_book_view(runtime, gl):
     """Headless PNG: the live discs' bounding box + 10 % (the network drifts); camera=book keeps the book's view."""
-    from viewer.views import create_view
+    from ugpcl.viewer.views import create_view
 
     count = 16
     sim = get("cellular_growth").create(runtime, 0, count=count)
@@ -762,7 +762,7 @@ def test_sphere_view_shades_each_disc(runtime, gl):
 
 @pytest.mark.gl
 def test_particle_view_and_keys(runtime, gl):
-    from viewer.views import create_view
+    from ugpcl.viewer.views import create_view
 
     sim = get("cellular_growth_particles").create(runtime, 0, count=256)
     for _ in range(30):

@@ -463,8 +463,8 @@ def project(camera, points: np.ndarray, size) -> tuple[np.ndarray, np.ndarray]:
 
 @pytest.mark.gl
 def test_surface_view_shows_the_cloth_draped_over_the_sphere(runtime, gl, draped):
-    from viewer.offscreen import frame
-    from viewer.views import create_view
+    from ugpcl.viewer.offscreen import frame
+    from ugpcl.viewer.views import create_view
 
     scene = get("cloth")
     view = create_view(scene, gl, draped)
@@ -495,9 +495,9 @@ def test_surface_view_shows_the_cloth_draped_over_the_sphere(runtime, gl, draped
 def test_surface_is_lit_on_both_sides(runtime, gl):
     """Two-sided lighting: the picture does not depend on which way the stored normals point; the front (facing
     the book's camera and the light) is bright, the back only gets ambient light."""
-    from viewer.camera import OrbitCamera
-    from viewer.offscreen import frame
-    from viewer.views import create_view
+    from ugpcl.viewer.camera import OrbitCamera
+    from ugpcl.viewer.offscreen import frame
+    from ugpcl.viewer.views import create_view
 
     scene = get("cloth")
     sim = scene.create(runtime, res=(16, 16), rest_length=0.2, sphere=False)  # flat, 3.2 m, no sphere
@@ -525,8 +525,8 @@ def test_surface_is_lit_on_both_sides(runtime, gl):
 
 @pytest.mark.gl
 def test_debug_view_draws_points_and_three_spring_families(runtime, gl, draped):
-    from viewer.offscreen import frame
-    from viewer.views import create_view
+    from ugpcl.viewer.offscreen import frame
+    from ugpcl.viewer.views import create_view
 
     scene = get("cloth_debug")
     view = create_view(scene, gl, draped)
@@ -552,7 +552,7 @@ def test_debug_view_draws_points_and_three_spring_families(runtime, gl, draped):
 
 @pytest.mark.gl
 def test_view_keys_change_the_simulation(runtime, gl):
-    from viewer.views import create_view
+    from ugpcl.viewer.views import create_view
 
     scene = get("cloth")
     sim = scene.create(runtime, res=(16, 16))
@@ -573,7 +573,7 @@ def test_view_keys_change_the_simulation(runtime, gl):
     assert view.debug and view.background == (0.0, 0.0, 0.0)
     view.toggle_buffers()
     view.upload()
-    from viewer.offscreen import frame
+    from ugpcl.viewer.offscreen import frame
 
     pixels = frame((96, 64)).render(view, view.make_camera())
     assert foreground(pixels[-10:-2, 2:40], view.background).mean() > 0.5, "buffer thumbnails bottom-left"

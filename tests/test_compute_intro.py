@@ -143,7 +143,7 @@ def test_bad_parameters_name_the_field(overrides, message):
 
 @pytest.mark.gl
 def test_view_shows_the_two_gradients(runtime, gl):
-    from viewer.offscreen import render
+    from ugpcl.viewer.offscreen import render
 
     scene = get("compute_intro_texture")
     sim = scene.create(runtime)

@@ -447,7 +447,7 @@ def test_run_grass_writes_the_spec_arrays_and_a_lawn(capsys, tmp_path):
     pixels = np.asarray(Image.open(png).convert("RGB"))
     mask = foreground(pixels, (0, 0, 0))
     # the book's camera (0, 30, -85), FOV 60: the 2x3 planes are a patch of lawn in the middle of the frame
-    from viewer.views.grass import book_grass_camera
+    from ugpcl.viewer.views.grass import book_grass_camera
 
     camera = book_grass_camera()
     camera.aspect = 96 / 72
@@ -481,8 +481,8 @@ def test_bad_cli_input_is_one_line(capsys):
 
 
 def render(glr, name: str, size=(96, 72), camera=None, prepare=None, **overrides):
-    from viewer.offscreen import frame
-    from viewer.views import create_view
+    from ugpcl.viewer.offscreen import frame
+    from ugpcl.viewer.views import create_view
 
     scene = get(name)
     sim = scene.create(glr.runtime, 0, **overrides)
@@ -530,7 +530,7 @@ def covered_pixels(triangles_clip: np.ndarray, size, samples: int = 1) -> np.nda
 
 @pytest.mark.gl
 def test_grass_view_draws_blades_where_the_blades_are(glr):
-    from viewer.camera import OrbitCamera
+    from ugpcl.viewer.camera import OrbitCamera
 
     camera = OrbitCamera(target=(0.0, 5.0, 0.0), distance=32.0, yaw=20.0, pitch=25.0)
     size = (96, 72)
@@ -558,7 +558,7 @@ def test_grass_view_draws_blades_where_the_blades_are(glr):
 @pytest.mark.gl
 def test_grass_geometry_shader_matches_grass_expand(glr):
     """Transform feedback of the viewer's own grass.geom against the kernel, 2x2 planes, with wind."""
-    from viewer.offscreen import frame
+    from ugpcl.viewer.offscreen import frame
 
     sim, view, camera, _, _ = render(glr, "grass", planes=(2, 2), start_time=7.0, wind_time_scale=1.0)
     frame((16, 16)).msaa.use()  # transform feedback still wants a complete framebuffer bound
@@ -580,7 +580,7 @@ def test_grass_geometry_shader_matches_grass_expand(glr):
 def test_grass_geometry_shader_matches_the_reference_on_a_tilted_mesh(glr, seed):
     """Transform feedback of grass.vert/grass.geom on the random tilted mesh (tilted normals, UVs wrapping, three
     instanced affine models) against the float64 port of the book's geom() and against grass_expand."""
-    from viewer.offscreen import frame
+    from ugpcl.viewer.offscreen import frame
 
     mesh, models, maps = tilted_mesh(seed)
 
@@ -633,7 +633,7 @@ def test_opencl_path_draws_the_same_lawn(glr):
 def test_culling_shows_why_the_book_says_cull_off(glr, rot, front):
     """One blade seen from -Z: along +X its strip turns counter-clockwise on screen (a back face: Unity's fronts are
     clockwise), along -X clockwise. Cull Off draws both; with culling one of them vanishes."""
-    from viewer.camera import OrbitCamera
+    from ugpcl.viewer.camera import OrbitCamera
 
     def one_blade(view):
         view.sim.set_mesh(GOLDEN_TRIANGLE, np.identity(4), constant_maps(0.2, rot, 0.0))
@@ -673,7 +673,7 @@ def test_pyramid_view_shows_the_plain_quad_and_two_pyramids(glr):
 
 @pytest.mark.gl
 def test_pyramid_geometry_shader_matches_pyramid_expand(glr):
-    from viewer.offscreen import frame
+    from ugpcl.viewer.offscreen import frame
 
     sim, view, camera, _, _ = render(glr, "grass_pyramid", height=2.0)
     frame((16, 16)).msaa.use()
@@ -689,7 +689,7 @@ def test_pyramid_geometry_shader_matches_pyramid_expand(glr):
 
 @pytest.mark.gl
 def test_view_keys_change_the_parameters(glr):
-    from viewer.views import create_view
+    from ugpcl.viewer.views import create_view
 
     scene = get("grass")
     sim = scene.create(glr.runtime, 0, planes=(2, 2))

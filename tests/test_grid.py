@@ -12,7 +12,6 @@ from ugpcl.runtime import round_up
 def count_neighbours(rt, grid: UniformGrid, items, n: int, stride: int, offset: int, radius: float) -> np.ndarray:
     count = rt.zeros(max(n, 1), np.int32)
     grid.program.kernel("GridCountNeighbours")(
-        rt.queue,
         (round_up(max(n, 1), 64),),
         None,
         items.data,

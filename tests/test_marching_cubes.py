@@ -616,7 +616,7 @@ def _project(camera, points: np.ndarray, size) -> np.ndarray:
 
 
 def _render(view, camera, size=(96, 72)):
-    from viewer.offscreen import frame
+    from ugpcl.viewer.offscreen import frame
 
     camera.aspect = size[0] / size[1]
     view.upload()
@@ -625,7 +625,7 @@ def _render(view, camera, size=(96, 72)):
 
 @pytest.mark.gl
 def test_geometry_shader_emits_the_kernels_triangles(runtime, gl):
-    from viewer.views import create_view
+    from ugpcl.viewer.views import create_view
 
     scene = get("marching_cubes")
     sim = scene.create(runtime, segment_num=20, shape="spheres-repo", time=0.3)
@@ -648,7 +648,7 @@ def test_geometry_shader_emits_the_kernels_triangles(runtime, gl):
 
 @pytest.mark.gl
 def test_view_shows_a_lit_surface_where_the_spheres_are(runtime, gl):
-    from viewer.views import create_view
+    from ugpcl.viewer.views import create_view
 
     scene = get("marching_cubes")
     sim = scene.create(runtime, segment_num=32, shape="spheres-book")  # radii 0.10-0.125: one blob of three balls
@@ -681,7 +681,7 @@ def test_view_shows_a_lit_surface_where_the_spheres_are(runtime, gl):
 @pytest.mark.gl
 def test_outward_faces_are_the_visible_ones(runtime, gl):
     """Culling back faces changes nothing when the winding is outward; culling with the wrong front face does."""
-    from viewer.views import create_view
+    from ugpcl.viewer.views import create_view
 
     scene = get("marching_cubes")
     sim = scene.create(runtime, segment_num=20, shape="spheres-book")
@@ -699,7 +699,7 @@ def test_outward_faces_are_the_visible_ones(runtime, gl):
 
 @pytest.mark.gl
 def test_view_keys_change_the_simulation(runtime, gl):
-    from viewer.views import create_view
+    from ugpcl.viewer.views import create_view
 
     scene = get("marching_cubes")
     sim = scene.create(runtime, segment_num=16)

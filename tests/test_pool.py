@@ -13,7 +13,6 @@ LOCAL = 64
 
 def append_multiples(rt, pool: Pool, n: int, every: int) -> None:
     rt.program("pool").kernel("AppendMultiples")(
-        rt.queue,
         (round_up(n, LOCAL),),
         (LOCAL,),
         pool.counter.data,
@@ -27,7 +26,7 @@ def append_multiples(rt, pool: Pool, n: int, every: int) -> None:
 def consume_into(rt, pool: Pool, n: int) -> np.ndarray:
     out = rt.zeros(max(n, 1), np.int32)
     rt.program("pool").kernel("ConsumeInto")(
-        rt.queue, (round_up(n, LOCAL),), (LOCAL,), pool.counter.data, pool.items.data, out.data, np.int32(n)
+        (round_up(n, LOCAL),), (LOCAL,), pool.counter.data, pool.items.data, out.data, np.int32(n)
     )
     return out.get()[:n]
 

@@ -743,8 +743,8 @@ def test_bad_parameters_name_the_field(setting, message):
 
 
 def render(runtime, gl, scene_name: str, sim, size=(160, 120), **view_state):
-    from viewer.offscreen import frame
-    from viewer.views import create_view
+    from ugpcl.viewer.offscreen import frame
+    from ugpcl.viewer.views import create_view
 
     view = create_view(get(scene_name), gl, sim)
     for key, value in view_state.items():
@@ -799,8 +799,8 @@ def test_cpu_view_draws_brown_branches(runtime, gl):
 
 @pytest.mark.gl
 def test_skinned_view_shows_tubes_above_the_floor(runtime, gl):
-    from viewer.offscreen import frame
-    from viewer.views import create_view
+    from ugpcl.viewer.offscreen import frame
+    from ugpcl.viewer.views import create_view
 
     scene = get("space_colonization_skinned")
     sim = scene.create(runtime, 0, **SKINNED_TEST)
@@ -833,7 +833,7 @@ def test_skinned_view_shows_tubes_above_the_floor(runtime, gl):
 
 @pytest.mark.gl
 def test_view_keys_change_the_simulation(runtime, gl):
-    from viewer.views import create_view
+    from ugpcl.viewer.views import create_view
 
     sim = get("space_colonization").create(runtime, 0, side=12)
     view = create_view(get("space_colonization"), gl, sim)

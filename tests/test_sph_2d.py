@@ -519,8 +519,8 @@ def to_pixels(camera, size, xy):
 
 @pytest.mark.gl
 def test_view_at_reset_draws_the_disc_in_water_blue(runtime, gl):
-    from viewer.offscreen import frame
-    from viewer.views import create_view
+    from ugpcl.viewer.offscreen import frame
+    from ugpcl.viewer.views import create_view
 
     scene = get("sph_2d")
     sim = scene.create(runtime, particle_num=2000, ball_radius=2.5, particle_radius=0.08)
@@ -548,8 +548,8 @@ def test_view_at_reset_draws_the_disc_in_water_blue(runtime, gl):
 
 @pytest.mark.gl
 def test_view_after_a_dam_break_shows_water_at_rest_on_the_floor(runtime, gl):
-    from viewer.offscreen import frame
-    from viewer.views import create_view
+    from ugpcl.viewer.offscreen import frame
+    from ugpcl.viewer.views import create_view
 
     scene = get("sph_2d")
     sim = scene.create(
@@ -589,7 +589,7 @@ def test_view_after_a_dam_break_shows_water_at_rest_on_the_floor(runtime, gl):
 
 @pytest.mark.gl
 def test_view_keys_and_mouse_drive_the_simulation(runtime, gl):
-    from viewer.views import create_view
+    from ugpcl.viewer.views import create_view
 
     scene = get("sph_2d")
     sim = scene.create(runtime, particle_num=1024)

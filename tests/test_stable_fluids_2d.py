@@ -563,8 +563,8 @@ def test_cli_run_writes_the_spec_arrays(tmp_path):
 
 @pytest.mark.gl
 def test_view_shows_the_line_stroke_as_dark_ink_on_white(runtime, gl):
-    from viewer.offscreen import frame
-    from viewer.views import create_view
+    from ugpcl.viewer.offscreen import frame
+    from ugpcl.viewer.views import create_view
 
     scene = get("stable_fluids_2d")
     sim = scene.create(runtime, width=64, height=36, source_radius=RADIUS, stroke="line")  # book gains
@@ -589,7 +589,7 @@ def test_view_shows_the_line_stroke_as_dark_ink_on_white(runtime, gl):
 
 @pytest.mark.gl
 def test_view_drag_paints_and_keys_change_the_simulation(runtime, gl):
-    from viewer.views import create_view
+    from ugpcl.viewer.views import create_view
 
     scene = get("stable_fluids_2d")
     sim = scene.create(runtime, width=64, height=36, stroke="none", source_radius=RADIUS)

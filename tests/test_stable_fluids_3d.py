@@ -706,8 +706,8 @@ def projected(camera, point, size) -> tuple[float, float]:
 
 @pytest.mark.gl
 def test_view_draws_smoke_where_the_density_is(runtime, gl):
-    from viewer.offscreen import frame
-    from viewer.views import create_view
+    from ugpcl.viewer.offscreen import frame
+    from ugpcl.viewer.views import create_view
 
     scene = get("stable_fluids_3d")
     sim = scene.create(runtime, width=24, height=20, depth=16, emitter=False)
@@ -770,7 +770,7 @@ def test_png_of_the_scene_shows_smoke_above_the_emitter(runtime, gl, tmp_path):
             smoke &= padded[dy : dy + lit.shape[0], dx : dx + lit.shape[1]]
     ys, xs = np.nonzero(smoke)
     assert len(xs) > 40, "no smoke in the picture"
-    from viewer.views.stable_fluids_3d import start_camera
+    from ugpcl.viewer.views.stable_fluids_3d import start_camera
 
     camera = start_camera()
     camera.aspect = 160 / 120
@@ -785,7 +785,7 @@ def test_png_of_the_scene_shows_smoke_above_the_emitter(runtime, gl, tmp_path):
 
 @pytest.mark.gl
 def test_view_keys_change_the_simulation(runtime, gl):
-    from viewer.views import create_view
+    from ugpcl.viewer.views import create_view
 
     scene = get("stable_fluids_3d")
     sim = scene.create(runtime, width=8, height=8, depth=8)

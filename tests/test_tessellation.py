@@ -122,7 +122,7 @@ def test_plane_is_unitys_and_faces_the_camera():
 
 @pytest.mark.gl
 def test_headless_camera_is_the_views(runtime, gl):
-    from viewer.views import create_view
+    from ugpcl.viewer.views import create_view
 
     view = create_view(get("tessellation"), gl, make(runtime))
     camera = view.make_camera()
@@ -424,7 +424,7 @@ class Capture:
     world position, d) per vertex, into shader storage buffers."""
 
     def __init__(self, gl, view, capacity: int = 200000):
-        from viewer.gl import load_program
+        from ugpcl.viewer.gl import load_program
 
         self.gl, self.view, self.capacity = gl, view, capacity
         view.program = load_program(gl, "tessellation", defines={"CAPTURE": 1})
@@ -437,7 +437,7 @@ class Capture:
         self.points = gl.buffer(reserve=16 + capacity * 32)
 
     def render(self, size, camera):
-        from viewer.offscreen import frame
+        from ugpcl.viewer.offscreen import frame
 
         self.factors.write(np.zeros(200 * 4, np.float32).tobytes())
         self.points.write(np.array([0, self.capacity, 0, 0], np.uint32).tobytes())
@@ -453,7 +453,7 @@ class Capture:
 
 
 def setup_view(runtime, gl, density=None, size=(160, 90), **overrides):
-    from viewer.views import create_view
+    from ugpcl.viewer.views import create_view
 
     scene = get("tessellation")
     overrides.setdefault("edge_length", 15.0)
@@ -469,7 +469,7 @@ def setup_view(runtime, gl, density=None, size=(160, 90), **overrides):
 
 @pytest.mark.gl
 def test_uniform_levels_give_the_fractional_odd_primitive_counts(runtime, gl):
-    from viewer.offscreen import frame
+    from ugpcl.viewer.offscreen import frame
 
     _, view, camera = setup_view(runtime, gl, size=(32, 18))
     levels = ((1.0, 1), (2.0, 13), (2.5, 13), (3.0, 13), (4.0, 37), (5.0, 37), (8.0, 121), (64.0, 5953), (0.0, 0))
@@ -491,8 +491,8 @@ def test_tcs_factors_captured_from_the_gpu_match_numpy(runtime, gl):
 
 @pytest.mark.gl
 def test_a_camera_looking_away_culls_every_patch(runtime, gl):
-    from viewer.camera import OrbitCamera
-    from viewer.offscreen import frame
+    from ugpcl.viewer.camera import OrbitCamera
+    from ugpcl.viewer.offscreen import frame
 
     _, view, _ = setup_view(runtime, gl)
     away = OrbitCamera(target=(0.0, 0.0, -20.0), distance=10.0, yaw=180.0)  # at (0, 0, -10), looking along -z
@@ -507,7 +507,7 @@ def test_tcs_culls_exactly_the_patches_numpy_culls_for_a_camera_seeing_part_of_t
     """Spec 17 section 8.9 with the frustum cull active on some patches only: the camera moved right and closer, so
     about a third of the patches lie beyond its left plane by more than the slack. Captured factors (0 = culled)
     must match numpy's per patch."""
-    from viewer.camera import OrbitCamera
+    from ugpcl.viewer.camera import OrbitCamera
 
     size = (192, 108)
     sim, view, _ = setup_view(runtime, gl, size=size, edge_length=2.0)
@@ -607,7 +607,7 @@ def test_tes_positions_captured_from_the_gpu_match_numpy(runtime, gl):
 
 @pytest.mark.gl
 def test_displacement_changes_pixels_only_where_the_density_is(runtime, gl):
-    from viewer.offscreen import frame
+    from ugpcl.viewer.offscreen import frame
 
     size = (160, 90)
     _, view, camera = setup_view(runtime, gl, size=size, edge_length=2.0)  # zero density
@@ -636,7 +636,7 @@ def test_displacement_changes_pixels_only_where_the_density_is(runtime, gl):
 def test_book_lighting_shows_the_fluid_through_its_shadow(runtime, gl):
     """variant=book lights the plane with its own, undisplaced normal (Unity's surface shader): a raised blob shows
     through the shadow it casts on the highlight; without the shadow pass hardly anything of it shows."""
-    from viewer.offscreen import frame
+    from ugpcl.viewer.offscreen import frame
 
     size = (160, 90)
     sim, view, camera = setup_view(runtime, gl, size=size, edge_length=2.0, variant="book")
@@ -658,7 +658,7 @@ def test_book_lighting_shows_the_fluid_through_its_shadow(runtime, gl):
 def test_the_fluid_run_shows_a_displaced_lit_plane(runtime, gl):
     """What a person sees after `ugpcl run tessellation --png`: the black specular plane on white, its centre bright,
     tessellated, and a raised ring where the circle stroke painted."""
-    from viewer.offscreen import render
+    from ugpcl.viewer.offscreen import render
 
     scene = get("tessellation")
     sim = scene.create(runtime, grid=64, edge_length=15.0)
@@ -752,7 +752,7 @@ def test_view_keys_and_painting_under_the_cursor(runtime, gl):
     view.toggle_density()
     view.toggle_levels()
     view.upload()
-    from viewer.offscreen import frame
+    from ugpcl.viewer.offscreen import frame
 
     frame((160, 90)).render(view, camera)
     view.toggle_freeze()

@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 from helpers import foreground
 from PIL import Image
+from ugpcl.viewer.views import view_class
 
 from ugpcl.scenes import scenes
-from viewer.views import view_class
 
 
 @pytest.fixture

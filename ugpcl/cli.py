@@ -197,7 +197,7 @@ def cmd_run(args) -> int:
         sim.export_mesh(args.mesh)
         print(f"wrote {args.mesh}")
     if args.png:
-        from viewer.offscreen import render_png
+        from ugpcl.viewer.offscreen import render_png
 
         size = _parse_size(args.png_size)
         render_png(scene, sim, args.png, size)

@@ -49,14 +49,14 @@ def _relative(path: Path, start: Path) -> tuple[str, ...]:
 
 
 def keys_table(name: str) -> str:
-    from viewer.app import keys_markdown
+    from ugpcl.viewer.app import keys_markdown
 
     return keys_markdown(get(name))
 
 
 def all_keys() -> str:
-    from viewer.app import MOUSE_HELP, SHARED_KEYS
-    from viewer.views import view_class
+    from ugpcl.viewer.app import MOUSE_HELP, SHARED_KEYS
+    from ugpcl.viewer.views import view_class
 
     parts = ["Every scene:", "", markdown_table([{"key": f"`{k.key}`", "action": k.help} for k in SHARED_KEYS])]
     parts += ["", f"and the {MOUSE_HELP}.", ""]
@@ -110,7 +110,7 @@ def tables(check: bool = False) -> int:
 
 
 def images(names: list[str] | None = None) -> int:
-    from viewer.offscreen import render_png
+    from ugpcl.viewer.offscreen import render_png
 
     from .runtime import Runtime
 

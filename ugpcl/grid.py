@@ -69,11 +69,9 @@ class UniformGrid:
         """Sort items 0..n-1 of ``items`` (a float buffer: item i's position starts at float i*stride+offset)."""
         if not 0 <= n <= self.capacity:
             raise ValueError(f"grid: n must be in [0, {self.capacity}], got {n}")
-        queue = self.runtime.queue
         buffer = items.data if isinstance(items, cla.Array) else items
         padded = next_power_of_two(max(n, 1))
         self.program.kernel("GridHash")(
-            queue,
             (round_up(padded, LOCAL_SIZE),),
             None,
             buffer,
@@ -89,18 +87,16 @@ class UniformGrid:
     def sort(self, n: int) -> None:
         """Sort the keys of items 0..n-1 (from GridHash or a chapter's own hash kernel, which fills the slots up to the
         next power of two with GRID_EMPTY_KEY: they sort last and own no cell) and record each cell's key range."""
-        queue = self.runtime.queue
         padded = next_power_of_two(max(n, 1))
         sort_step = self.program.kernel("BitonicSortStep")
         k = 2
         while k <= padded:
             j = k // 2
             while j >= 1:
-                sort_step(queue, (padded // 2,), None, self.keys.data, np.int32(j), np.int32(k))
+                sort_step((padded // 2,), None, self.keys.data, np.int32(j), np.int32(k))
                 j //= 2
             k *= 2
         self.program.kernel("GridClearCells")(
-            queue,
             (round_up(self.num_cells, LOCAL_SIZE),),
             None,
             self.cell_start.data,
@@ -110,7 +106,6 @@ class UniformGrid:
         self.n = n
         if n:
             self.program.kernel("GridFindCellRanges")(
-                queue,
                 (round_up(n, LOCAL_SIZE),),
                 None,
                 self.keys.data,

@@ -24,10 +24,11 @@ import numpy as np
 # {{{ parameters
 
 
-def param(default, lo=None, hi=None, *, lo_open: bool = False, choices=None):
+def param(default, lo=None, hi=None, *, lo_open: bool = False, choices=None, live: bool = False):
     """A Params field with its book default and allowed range ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``) or
-    ``choices``. For tuple fields the range applies to every component."""
-    return field(default=default, metadata={"lo": lo, "hi": hi, "lo_open": lo_open, "choices": choices})
+    ``choices``. For tuple fields the range applies to every component. ``live``: a change takes effect on the
+    next step; changing a field that is not live resets the simulation (``Simulation.update``)."""
+    return field(default=default, metadata={"lo": lo, "hi": hi, "lo_open": lo_open, "choices": choices, "live": live})
 
 
 def _describe_range(meta) -> str:
@@ -108,6 +109,11 @@ class Params:
     @classmethod
     def names(cls) -> list[str]:
         return [f.name for f in dataclasses.fields(cls)]
+
+    @classmethod
+    def live_names(cls) -> frozenset[str]:
+        """Fields declared ``param(..., live=True)``: changing them needs no reset."""
+        return frozenset(f.name for f in dataclasses.fields(cls) if f.metadata.get("live"))
 
     @classmethod
     def parse(cls, name: str, text: str):
@@ -207,8 +213,6 @@ class Simulation:
     """Fixed step for headless runs (the book uses Time.deltaTime)."""
     history: ClassVar[tuple[str, ...]] = ()
     """State arrays that ``--every K`` stacks into ``<name>_history``."""
-    live_params: ClassVar[frozenset[str]] = frozenset()
-    """Params that take effect on the next step; changing any other one resets the simulation."""
 
     def __init__(self, runtime, params: Params | None = None, seed: int = 0):
         self.runtime = runtime
@@ -218,11 +222,15 @@ class Simulation:
         if not isinstance(seed, int | np.integer) or seed < 0:
             raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
         self.seed = int(seed)
-        self.time = 0.0
-        self.steps = 0
         self.reset()
 
     def reset(self) -> None:
+        """Back to the initial state for the current params and seed: time and step count to 0, then the
+        chapter's own ``_reset()`` (buffers, programs, initial kernels)."""
+        self.time, self.steps = 0.0, 0
+        self._reset()
+
+    def _reset(self) -> None:
         raise NotImplementedError
 
     def step(self, dt: float | None = None) -> None:
@@ -235,11 +243,11 @@ class Simulation:
         return {"steps": self.steps, "time": self.time}
 
     def update(self, **changes) -> None:
-        """Change parameters (validated); reset unless every changed one is in ``live_params``."""
+        """Change parameters (validated); reset unless every changed one is live (``param(..., live=True)``)."""
         new = self.params.replace(**changes)
         changed = {k for k in changes if getattr(new, k) != getattr(self.params, k)}
         self.params = new
-        if changed - self.live_params:
+        if changed - new.live_names():
             self.reset()
 
     def _advance(self, dt: float) -> None:
@@ -264,7 +272,11 @@ def check_dt(dt: float | None, default: float) -> float:
 
 @dataclass(frozen=True)
 class Scene:
-    """A runnable name: ``simulation`` with ``defaults`` applied to its Params."""
+    """A runnable name: ``simulation`` with ``defaults`` applied to its Params.
+
+    ``defaults`` is the one way a scene changes the values of its Params class (the book's scene files differ from
+    the script defaults; CellularGrowthSphere.unity from CellularGrowth.unity). A Params subclass adds fields; it
+    never re-declares an inherited one to change its default."""
 
     name: str
     simulation: type[Simulation]
@@ -281,6 +293,14 @@ class Scene:
 
     def params(self, **overrides) -> Params:
         return self.simulation.Params(**{**self.defaults, **overrides})
+
+    def table(self) -> list[dict[str, str]]:
+        """``Params.table()`` with this scene's defaults (``ugpcl params``, the chapter pages)."""
+        rows = self.simulation.Params.table()
+        for row in rows:
+            if row["name"] in self.defaults:
+                row["default"] = _show(self.defaults[row["name"]])
+        return rows
 
     def create(self, runtime, seed: int = 0, **overrides) -> Simulation:
         return self.simulation(runtime, self.params(**overrides), seed)

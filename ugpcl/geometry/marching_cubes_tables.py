@@ -25,9 +25,10 @@ of ``1 << e`` over the edges row i uses. ``python -m ugpcl.geometry.marching_cub
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 import numpy as np
+
+from ..runtime import INCLUDE_DIR
 
 VERTEX_OFFSET = np.array(
     [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)], np.int32
@@ -42,7 +43,7 @@ EDGE_DIRECTION = VERTEX_OFFSET[EDGE_CONNECTION[:, 1]] - VERTEX_OFFSET[EDGE_CONNE
 MAX_TRIANGLES = 5
 """Triangles one cell can make (book: [maxvertexcount(15)] = 3 * 5)."""
 
-HEADER = Path(__file__).resolve().parents[2] / "clkernels" / "include" / "marching_cubes_tables.h"
+HEADER = INCLUDE_DIR / "marching_cubes_tables.h"
 
 
 def _faces() -> list[tuple[list[int], np.ndarray]]:

@@ -39,33 +39,33 @@ INIT_SPEED = 0.1
 class Params(BaseParams):
     max_object_num: int = param(16384, 1, 1 << 22)
     """Number of boids N (book: MaxObjectNum, inspector range 256-32768)."""
-    cohesion_neighborhood_radius: float = param(2.0, 0.0, lo_open=True)
+    cohesion_neighborhood_radius: float = param(2.0, 0.0, lo_open=True, live=True)
     """Neighbours closer than this pull towards their centroid, world units (book: _CohesionNeighborhoodRadius)."""
-    alignment_neighborhood_radius: float = param(2.0, 0.0, lo_open=True)
+    alignment_neighborhood_radius: float = param(2.0, 0.0, lo_open=True, live=True)
     """Neighbours closer than this share their mean velocity, world units (book: _AlignmentNeighborhoodRadius)."""
-    separate_neighborhood_radius: float = param(1.0, 0.0, lo_open=True)
+    separate_neighborhood_radius: float = param(1.0, 0.0, lo_open=True, live=True)
     """Neighbours closer than this push apart, world units (book: _SeparateNeighborhoodRadius)."""
-    max_speed: float = param(5.0, 0.0, lo_open=True)
+    max_speed: float = param(5.0, 0.0, lo_open=True, live=True)
     """Speed limit and target speed of every steering rule, units/s (book: _MaxSpeed)."""
-    max_steer_force: float = param(0.5, 0.0)
+    max_steer_force: float = param(0.5, 0.0, live=True)
     """Length limit of each rule's steering force (book: _MaxSteerForce)."""
-    cohesion_weight: float = param(1.0, 0.0)
+    cohesion_weight: float = param(1.0, 0.0, live=True)
     """Weight of the cohesion force (book: _CohesionWeight)."""
-    alignment_weight: float = param(1.0, 0.0)
+    alignment_weight: float = param(1.0, 0.0, live=True)
     """Weight of the alignment force (book: _AlignmentWeight)."""
-    separate_weight: float = param(3.0, 0.0)
+    separate_weight: float = param(3.0, 0.0, live=True)
     """Weight of the separation force (book: _SeparateWeight)."""
-    avoid_wall_weight: float = param(10.0, 0.0)
+    avoid_wall_weight: float = param(10.0, 0.0, live=True)
     """Push back per axis while a boid is outside the box (book: _AvoidWallWeight)."""
-    wall_center: tuple[float, float, float] = param((0.0, 0.0, 0.0))
+    wall_center: tuple[float, float, float] = param((0.0, 0.0, 0.0), live=True)
     """Centre of the box, world units (book: _WallCenter)."""
-    wall_size: tuple[float, float, float] = param((32.0, 32.0, 32.0), 0.0, lo_open=True)
+    wall_size: tuple[float, float, float] = param((32.0, 32.0, 32.0), 0.0, lo_open=True, live=True)
     """Edge lengths of the box, world units (book: _WallSize)."""
     simulation_block_size: int = param(256, choices=(1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024))
     """Work-group size = tile length of ForceCS (book: SIMULATION_BLOCK_SIZE); halved if the device cannot run it."""
-    object_scale: tuple[float, float, float] = param((0.1, 0.2, 0.5), 0.0, lo_open=True)
+    object_scale: tuple[float, float, float] = param((0.1, 0.2, 0.5), 0.0, lo_open=True, live=True)
     """Scale of the instanced cube drawn per boid, render only (book: ObjectScale)."""
-    variant: str = param("tiled", choices=("tiled", "naive", "grid"))
+    variant: str = param("tiled", choices=("tiled", "naive", "grid"), live=True)
     """ForceCS flavour: the book's local-memory tiles, the plain global-memory loop, or the uniform grid."""
 
 
@@ -74,9 +74,8 @@ class Simulation(BaseSimulation):
 
     Params = Params
     history = ("position", "velocity")
-    live_params = frozenset(Params.names()) - {"max_object_num", "simulation_block_size"}
 
-    def reset(self) -> None:
+    def _reset(self) -> None:
         p, rt = self.params, self.runtime
         self.n = p.max_object_num
         # largest power of two <= simulation_block_size that the device runs ForceCS with (spec 03 section 5)
@@ -86,7 +85,6 @@ class Simulation(BaseSimulation):
         self.boid_data = rt.to_device(initial_boids(self.n, self.seed))
         self.boid_force = rt.zeros(self.n, cltypes.float4)
         self.grid = None  # built on first use by variant=grid
-        self.time, self.steps = 0.0, 0
 
     # {{{ kernels, in the book's order
 
@@ -116,7 +114,6 @@ class Simulation(BaseSimulation):
             grid.build(self.boid_data, self.n, stride=BOID_DTYPE.itemsize // 4, offset=4)  # floats 4..6: position
             grid_args = (*grid.geometry_args(), *grid.search_args())
         self.program.kernel(name)(
-            self.runtime.queue,
             (round_up(self.n, self.block_size),),
             (self.block_size,) if variant == "tiled" else None,
             self.boid_data.data,
@@ -144,7 +141,6 @@ class Simulation(BaseSimulation):
         """IntegrateCS: wall force, velocity += force*dt (limited to max_speed), position += velocity*dt."""
         p = self.params
         self.program.kernel("IntegrateCS")(
-            self.runtime.queue,
             (round_up(self.n, self.block_size),),
             (self.block_size,),
             self.boid_data.data,

@@ -40,7 +40,6 @@ import pyopencl.cltypes as cltypes
 from ..benchmark import seconds_per_call, seconds_per_step
 from ..buffers import PingPong, Pool
 from ..grid import UniformGrid
-from ..runtime import round_up
 from ..scene import Params as BaseParams
 from ..scene import Scene, check_dt, param
 from ..scene import Simulation as BaseSimulation
@@ -80,35 +79,35 @@ PATTERNS = ("closed", "branch")
 class ParticleParams(BaseParams):
     count: int = param(8192, 2, 1 << 20)
     """Capacity of particles, edges and every pool (book: count; scenes 8192, script default 4096)."""
-    size: float = param(0.9, 0.1, 1.5)
+    size: float = param(0.9, 0.1, 1.5, live=True)
     """Render scale of a cell: its quad is radius x 2 x size wide (book: size)."""
-    grow: float = param(0.25, 0.01, 1.0)
+    grow: float = param(0.25, 0.01, 1.0, live=True)
     """Growth rate per second: radius += dt x grow x radius (book text: + dt x grow) (book: grow, _Grow)."""
-    divide_interval: float = param(0.5, 0.02, 3.0)
+    divide_interval: float = param(0.5, 0.02, 3.0, live=True)
     """Seconds between Divide calls (book: divideInterval)."""
-    max_divide_count: int = param(32, 1, 128)
+    max_divide_count: int = param(32, 1, 128, live=True)
     """Most divisions per Divide call (book: maxDivideCount)."""
-    drag: float = param(0.975, 0.1, 1.0)
+    drag: float = param(0.975, 0.1, 1.0, live=True)
     """Velocity damping factor per update (book: drag, _Drag)."""
-    limit: float = param(5.0, 0.1, 5.0)
+    limit: float = param(5.0, 0.1, 5.0, live=True)
     """Largest step per update, world units, and largest speed (book: limit, _Limit)."""
-    repulsion: float = param(1.0, 1.0, 5.0)
+    repulsion: float = param(1.0, 1.0, 5.0, live=True)
     """Cells closer than (ra + rb) x repulsion push apart (book: repulsion, _Repulsion)."""
-    emit_count: int = param(8, 1, 1 << 20)
+    emit_count: int = param(8, 1, 1 << 20, live=True)
     """Cells per emit call while emitting (book: EmitParticlesKernel's emitCount; 8 in the repository, 32 in the
     text)."""
-    emit_frames: int = param(10, 0, 1 << 20)
+    emit_frames: int = param(10, 0, 1 << 20, live=True)
     """Headless script: the first emit_frames steps emit emit_count cells around the origin (the book emits while the
     left mouse button is held)."""
-    search: str = param("all_pairs", choices=("all_pairs", "grid"))
+    search: str = param("all_pairs", choices=("all_pairs", "grid"), live=True)
     """Repulsion partners: the book's loop over every slot, or the 3x3 cells of a uniform grid (ugpcl)."""
-    variant: str = param("fixed", choices=("book", "fixed"))
+    variant: str = param("fixed", choices=("book", "fixed"), live=True)
     """Host limits of the divide kernels: the book's, or with the two-edge Closed guard and the
     DivideUnconnectedParticles ticket and snapshot (see the module docstring)."""
     book_text: bool = param(False)
     """Use the formulas printed in the book (linear growth, child threshold lerp 1.25-2, random offset radius x 0.25,
     no wobble) instead of the repository's."""
-    camera: str = param("fit", choices=("fit", "book"))
+    camera: str = param("fit", choices=("fit", "book"), live=True)
     """Headless PNG camera: fit the live cells (+10 %) or the book's fixed orthographic view (size 10 at (0, 1))."""
 
 
@@ -116,24 +115,24 @@ class ParticleParams(BaseParams):
 class Params(ParticleParams):
     """The network scene (CellularGrowth.unity); its own defaults where the scene differs from ParticleOnly."""
 
-    grow: float = param(0.25, 0.01, 1.0)
-    divide_interval: float = param(0.25, 0.02, 3.0)
-    max_divide_count: int = param(64, 1, 128)
-    drag: float = param(0.985, 0.1, 1.0)
-    limit: float = param(1.0, 0.1, 5.0)
-    repulsion: float = param(2.2, 1.0, 5.0)
-    emit_frames: int = param(0, 0, 1 << 20)
-    spring: float = param(5.0, 1.0, 10.0)
+    grow: float = param(0.25, 0.01, 1.0, live=True)
+    divide_interval: float = param(0.25, 0.02, 3.0, live=True)
+    max_divide_count: int = param(64, 1, 128, live=True)
+    drag: float = param(0.985, 0.1, 1.0, live=True)
+    limit: float = param(1.0, 0.1, 5.0, live=True)
+    repulsion: float = param(2.2, 1.0, 5.0, live=True)
+    emit_frames: int = param(0, 0, 1 << 20, live=True)
+    spring: float = param(5.0, 1.0, 10.0, live=True)
     """Edge spring strength (book: spring, _Spring)."""
-    pattern: str = param("closed", choices=PATTERNS)
+    pattern: str = param("closed", choices=PATTERNS, live=True)
     """Divide pattern: closed (a ring, fig 4.6-4.8) or branch (a tree, fig 4.9-4.12) (book: pattern)."""
-    max_link: int = param(3, 2, 6)
+    max_link: int = param(3, 2, 6, live=True)
     """An edge is not dividable when both its cells have this many links (book: maxLink, _MaxLink)."""
-    iterations: int = param(2, 1, 16)
+    iterations: int = param(2, 1, 16, live=True)
     """UpdateEdges, SpringEdges, UpdateParticles passes per step (book: iterations)."""
-    render: str = param("edges", choices=("edges", "discs", "spheres"))
+    render: str = param("edges", choices=("edges", "discs", "spheres"), live=True)
     """Look of the view (V key): discs joined by edge lines, discs only, or lit sphere impostors."""
-    sphere_depth: str = param("radius", choices=("radius", "book"))
+    sphere_depth: str = param("radius", choices=("radius", "book"), live=True)
     """Depth of a sphere impostor's surface: radius x size (correct) or the book's constant size (ParticleSphere)."""
 
 
@@ -158,8 +157,7 @@ SPHERE_DEFAULTS = {
 
 def _launch(sim, name: str, n: int, *args) -> None:
     """Run kernel ``name`` over n work-items in groups of GROUP_SIZE (nothing when n <= 0)."""
-    if n > 0:
-        sim.program.kernel(name)(sim.runtime.queue, (round_up(n, GROUP_SIZE),), (GROUP_SIZE,), *args)
+    sim.program.kernel(name).over(n, GROUP_SIZE, *args)
 
 
 class ParticleSimulation(BaseSimulation):
@@ -167,12 +165,11 @@ class ParticleSimulation(BaseSimulation):
 
     Params = ParticleParams
     history = ("alive_count", "edge_count")
-    live_params = frozenset(ParticleParams.names()) - {"count", "book_text"}
     has_edges = False
 
     # {{{ setup
 
-    def reset(self) -> None:
+    def _reset(self) -> None:
         p, rt = self.params, self.runtime
         self.program = rt.program("cellular_growth", BOOK_TEXT=p.book_text)
         if getattr(self, "count", None) == p.count:
@@ -185,7 +182,7 @@ class ParticleSimulation(BaseSimulation):
             if self.has_edges:
                 self.init_edges()
         self.faults.fill(0)
-        self.time, self.steps, self.divides = 0.0, 0, 0
+        self.divides = 0
         self.next_divide = p.divide_interval  # book: IDivider yields one frame, then WaitForSeconds(divideInterval)
         self.emit_point: tuple[float, float] | None = None
         self.grid, self.grid_key = None, None
@@ -448,7 +445,6 @@ class Simulation(ParticleSimulation):
     """CellularGrowth.cs: cells joined by edges (springs); edges divide in the Closed or Branch pattern."""
 
     Params = Params
-    live_params = frozenset(Params.names()) - {"count", "book_text"}
     has_edges = True
 
     def _start(self) -> None:

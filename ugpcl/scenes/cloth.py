@@ -42,33 +42,33 @@ MAX_PARTICLES = 1 << 22
 
 @dataclass(frozen=True)
 class Params(BaseParams):
-    timestep: float = param(0.01, 0.0, 0.1, lo_open=True)
+    timestep: float = param(0.01, 0.0, 0.1, lo_open=True, live=True)
     """Simulated seconds per frame, split into `substeps` Verlet steps (book: TimeStep)."""
-    substeps: int = param(4, 1, 16)
+    substeps: int = param(4, 1, 16, live=True)
     """CSSimulation launches per frame (book: VerletIterationNum, inspector range 1-16)."""
     res: tuple[int, int] = param((128, 128), 2, 4096)
     """Particles (W, H) (book: ClothResolution); the top row y = H-1 is pinned."""
-    rest_length: float = param(0.02, 0.0, lo_open=True)
+    rest_length: float = param(0.02, 0.0, lo_open=True, live=True)
     """Structural spring rest length = grid spacing, metres (book: RestLength); cloth size = res * rest_length."""
-    stiffness: float = param(10000.0, 0.0)
+    stiffness: float = param(10000.0, 0.0, live=True)
     """Spring constant k (book: Stiffness); explicit Verlet needs dt * sqrt(12 k / mass) < 2."""
-    damp: float = param(0.996, 0.0)
+    damp: float = param(0.996, 0.0, live=True)
     """Velocity damping b, applied once per neighbour: force -= b * v (book: Damp)."""
-    mass: float = param(1.0, 0.0, lo_open=True)
+    mass: float = param(1.0, 0.0, lo_open=True, live=True)
     """Mass of every particle, kg; the kernel gets 1/mass (book: Mass)."""
-    gravity: tuple[float, float, float] = param((0.0, -9.81, 0.0))
+    gravity: tuple[float, float, float] = param((0.0, -9.81, 0.0), live=True)
     """Added to each particle's force, then divided by the mass (book: Gravity)."""
-    physical_gravity: bool = param(False)
+    physical_gravity: bool = param(False, live=True)
     """Treat gravity as an acceleration (force = mass * gravity) instead of the book's force (spec pitfall 6)."""
-    sphere: bool = param(True)
+    sphere: bool = param(True, live=True)
     """Collide with the sphere (book: _EnableCollideSphere, true when CollisionSphereTransform is set)."""
-    sphere_scale: float = param(2.0, 0.0, lo_open=True)
+    sphere_scale: float = param(2.0, 0.0, lo_open=True, live=True)
     """Diameter of the drawn sphere (its localScale.x); collision radius = scale / 2 + 0.01."""
-    translate_center_z: float = param(0.0)
+    translate_center_z: float = param(0.0, live=True)
     """Centre of the sphere's motion along z, metres (book: ColliderTranslate.TranslateCenterZ)."""
-    translate_length_z: float = param(4.0)
+    translate_length_z: float = param(4.0, live=True)
     """Amplitude of the sphere's motion along z, metres (book: ColliderTranslate.TranslateLengthZ)."""
-    sphere_motion: bool = param(True)
+    sphere_motion: bool = param(True, live=True)
     """Move the sphere with the frame time; off freezes it where it is."""
     num_threads_xy: int = param(16, choices=(1, 2, 4, 8, 16, 32))
     """Work-group edge (book: NUM_THREADS_XY = 32); halved until the device runs it."""
@@ -112,9 +112,8 @@ class Simulation(BaseSimulation):
 
     Params = Params
     history = ("pos", "normal", "sphere", "frame")
-    live_params = frozenset(Params.names()) - {"res", "num_threads_xy", "variant"}
 
-    def reset(self) -> None:
+    def _reset(self) -> None:
         p, rt = self.params, self.runtime
         self.width, self.height = p.res
         fix_nan = p.variant == "fixed"
@@ -126,7 +125,6 @@ class Simulation(BaseSimulation):
         self.pos = PingPong.zeros(rt, shape, np.float32)  # book: _posBuff[0] (.read), _posBuff[1] (.write)
         self.prev = PingPong.zeros(rt, shape, np.float32)  # book: _posPrevBuff
         self.normal = rt.zeros(shape, np.float32)  # book: _normBuff
-        self.time, self.steps = 0.0, 0
         self.sphere_time = 0.0  # the collider's clock: stops while sphere_motion is off
         self.sphere_params = self.collider(self.sphere_time)
         self.cs_init()
@@ -146,7 +144,6 @@ class Simulation(BaseSimulation):
         """CSInit into pos.read, prev.read and normal, then copy both pairs (book: ResetBuffer's Graphics.Blit)."""
         p, rt = self.params, self.runtime
         self.program.kernel("CSInit")(
-            rt.queue,
             self._global_size(),
             (self.block, self.block),
             self.pos.read.data,
@@ -162,10 +159,9 @@ class Simulation(BaseSimulation):
     def cs_simulation(self) -> None:
         """One CSSimulation launch (a substep of timestep / substeps) against the current collider, then swap both
         ping-pong pairs."""
-        p, rt = self.params, self.runtime
+        p, _rt = self.params, self.runtime
         gravity = np.asarray(p.gravity) * (p.mass if p.physical_gravity else 1.0)
         self.program.kernel("CSSimulation")(
-            rt.queue,
             self._global_size(),
             (self.block, self.block),
             self.pos.read.data,

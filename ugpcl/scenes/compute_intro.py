@@ -34,11 +34,11 @@ IMAGE_FORMAT = cl.ImageFormat(cl.channel_order.RGBA, cl.channel_type.UNORM_INT8)
 
 @dataclass(frozen=True)
 class Params(BaseParams):
-    sample: str = param("all", choices=("all", "array", "texture"))
+    sample: str = param("all", choices=("all", "array", "texture"), live=True)
     """Which of the chapter's samples step() runs."""
-    int_value: int = param(1, -(1 << 20), 1 << 20)
+    int_value: int = param(1, -(1 << 20), 1 << 20, live=True)
     """Multiplier of KernelFunction_A in the array sample (book: intValue)."""
-    groups: int = param(1, 1, 64)
+    groups: int = param(1, 1, 64, live=True)
     """Groups launched for the array kernels; > 1 shows the local-id race of KernelFunction_B."""
     tex_width: int = param(512, 1, 16384)
     """Texture width, texels (book: new RenderTexture(512, 512, ...))."""
@@ -58,9 +58,8 @@ class Simulation(BaseSimulation):
     """Both samples of the chapter; each step re-dispatches them as the book's Update does."""
 
     Params = Params
-    live_params = frozenset({"int_value", "groups", "sample"})
 
-    def reset(self) -> None:
+    def _reset(self) -> None:
         p, rt = self.params, self.runtime
         if p.local_size[0] * p.local_size[1] > rt.device.max_work_group_size:
             raise ValueError(
@@ -74,7 +73,6 @@ class Simulation(BaseSimulation):
         self.int_buffer = rt.zeros(ARRAY_LEN, np.int32)  # book: intComputeBuffer
         self.texture_a = self._texture()
         self.texture_b = self._texture()
-        self.time, self.steps = 0.0, 0
         # The book's Start(): the array sample runs once; textures stay blank until the first Update (step).
         self.results: dict[str, np.ndarray] = {}
         if p.sample in ("all", "array"):
@@ -120,14 +118,14 @@ class Simulation(BaseSimulation):
     def kernel_function_a_array(self) -> np.ndarray:
         """Dispatch KernelFunction_A with `groups` groups of 4, then GetData."""
         self.array_program.kernel("KernelFunction_A")(
-            self.runtime.queue, (4 * self.params.groups,), (4,), self.int_buffer.data, np.int32(self.params.int_value)
+            (4 * self.params.groups,), (4,), self.int_buffer.data, np.int32(self.params.int_value)
         )
         return self.int_buffer.get()
 
     def kernel_function_b_array(self, atomic: bool = False) -> np.ndarray:
         """Dispatch KernelFunction_B (or its atomic_add twin) on the same buffer, then GetData."""
         name = "KernelFunction_B_atomic" if atomic else "KernelFunction_B"
-        self.array_program.kernel(name)(self.runtime.queue, (4 * self.params.groups,), (4,), self.int_buffer.data)
+        self.array_program.kernel(name)((4 * self.params.groups,), (4,), self.int_buffer.data)
         return self.int_buffer.get()
 
     def run_array_sample(self) -> None:
@@ -144,9 +142,7 @@ class Simulation(BaseSimulation):
         p = self.params
         tx, ty = local_size or p.local_size
         global_size = (round_up(p.tex_width, tx), round_up(p.tex_height, ty))
-        (program or self.texture_program).kernel(name)(
-            self.runtime.queue, global_size, (tx, ty), *self._texture_args(texture)
-        )
+        (program or self.texture_program).kernel(name)(global_size, (tx, ty), *self._texture_args(texture))
 
     def kernel_function_a_texture(self) -> None:
         """KernelFunction_A on texture A: horizontal black-to-white gradient."""
@@ -161,15 +157,15 @@ class Simulation(BaseSimulation):
         p = self.params
         texture = self._texture()
         count = p.tex_width * p.tex_height
-        self.texture_program.kernel("KernelFunction_A_1D")(
-            self.runtime.queue, (round_up(count, 64),), (64,), *self._texture_args(texture)
-        )
+        self.texture_program.kernel("KernelFunction_A_1D")((round_up(count, 64),), (64,), *self._texture_args(texture))
         return self.read_texture(texture)
 
     def kernel_work_group_size(self, name: str = "KernelFunction_A") -> tuple[int, int, int]:
         """GetKernelThreadGroupSizes: the numthreads the texture kernel was compiled with."""
         info = cl.kernel_work_group_info.COMPILE_WORK_GROUP_SIZE
-        return tuple(int(v) for v in self.texture_program.kernel(name).get_work_group_info(info, self.runtime.device))
+        return tuple(
+            int(v) for v in self.texture_program.kernel(name).cl.get_work_group_info(info, self.runtime.device)
+        )
 
     def run_texture_sample(self) -> None:
         self.kernel_function_a_texture()
@@ -188,7 +184,7 @@ class Simulation(BaseSimulation):
         global_size = tuple(g * t for g, t in zip(groups, numthreads, strict=True))
         count = int(np.prod(global_size))
         probe = self.runtime.zeros(count * PROBE_FIELDS, np.int32)
-        self.texture_program.kernel("DispatchProbe")(self.runtime.queue, global_size, numthreads, probe.data)
+        self.texture_program.kernel("DispatchProbe")(global_size, numthreads, probe.data)
         ids = probe.get().reshape(count, PROBE_FIELDS)
         return {
             "probe_group": ids[:, 0:3].copy(),

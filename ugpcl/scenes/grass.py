@@ -78,37 +78,37 @@ class Params(BaseParams):
     """Planes along x and z, 10 units apart (book: PlaneDeployer width, height; inspector range 1-50)."""
     plane_resolution: int = param(10, 1, 1000)
     """Cells per side of each plane, two blades per cell (Unity's built-in Plane: 10; ours, for density)."""
-    height: float = param(25.0, 0.0, 1e4)
+    height: float = param(25.0, 0.0, 1e4, live=True)
     """Overall blade height scale, object units (book: _Height; shader default 80)."""
-    width: float = param(0.5, 0.0, 1e3)
+    width: float = param(0.5, 0.0, 1e3, live=True)
     """Overall blade width scale, object units (book: _Width; shader default 2.5)."""
-    bottom_height: float = param(0.3, 0.0, 100.0)
+    bottom_height: float = param(0.3, 0.0, 100.0, live=True)
     """Height of the bottom section, times map height x height (book: _BottomHeight)."""
-    middle_height: float = param(0.4, 0.0, 100.0)
+    middle_height: float = param(0.4, 0.0, 100.0, live=True)
     """Height of the middle section (book: _MiddleHeight)."""
-    top_height: float = param(0.5, 0.0, 100.0)
+    top_height: float = param(0.5, 0.0, 100.0, live=True)
     """Height of the top section (book: _TopHeight)."""
-    bottom_width: float = param(0.5, 0.0, 100.0)
+    bottom_width: float = param(0.5, 0.0, 100.0, live=True)
     """Half-width at the root, times width (book: _BottomWidth)."""
-    middle_width: float = param(0.4, 0.0, 100.0)
+    middle_width: float = param(0.4, 0.0, 100.0, live=True)
     """Half-width at the first joint (book: _MiddleWidth)."""
-    top_width: float = param(0.2, 0.0, 100.0)
+    top_width: float = param(0.2, 0.0, 100.0, live=True)
     """Half-width at the second joint and offset of the tip (book: _TopWidth)."""
-    bottom_bend: float = param(1.0, -100.0, 100.0)
+    bottom_bend: float = param(1.0, -100.0, 100.0, live=True)
     """Wind displacement multiplier of the first joint (book: _BottomBend; shader default 1)."""
-    middle_bend: float = param(2.0, -100.0, 100.0)
+    middle_bend: float = param(2.0, -100.0, 100.0, live=True)
     """Wind displacement multiplier of the second joint (book: _MiddleBend; shader default 1)."""
-    top_bend: float = param(3.0, -100.0, 100.0)
+    top_bend: float = param(3.0, -100.0, 100.0, live=True)
     """Wind displacement multiplier of the tip (book: _TopBend; shader default 2)."""
-    wind_power: float = param(0.75, -1e3, 1e3)
+    wind_power: float = param(0.75, -1e3, 1e3, live=True)
     """Wind strength, object units along the plane's +X (book: _WindPower; shader default 1)."""
-    top_color: tuple[float, float, float, float] = param((0.0, 1.0, 0.29655, 1.0), 0.0, 1.0)
+    top_color: tuple[float, float, float, float] = param((0.0, 1.0, 0.29655, 1.0), 0.0, 1.0, live=True)
     """Tip colour, rgba (book: _TopColor; shader default white)."""
-    bottom_color: tuple[float, float, float, float] = param((0.0, 0.20766, 0.33088, 1.0), 0.0, 1.0)
+    bottom_color: tuple[float, float, float, float] = param((0.0, 0.20766, 0.33088, 1.0), 0.0, 1.0, live=True)
     """Root colour, rgba (book: _BottomColor; shader default black)."""
-    wind_time_scale: float = param(0.05, 0.0, 1e3)
+    wind_time_scale: float = param(0.05, 0.0, 1e3, live=True)
     """Sway phase per second: the book's sin(_Time) keeps only _Time.x = t/20 (faithful 0.05; 1 sways visibly)."""
-    start_time: float = param(0.0, -1e6, 1e6)
+    start_time: float = param(0.0, -1e6, 1e6, live=True)
     """Shader time at step 0, seconds (Unity's Time.time); each step adds dt (the spec's --time)."""
     backend: str = param("opencl", choices=("opencl", "numpy"))
     """Who runs the geometry stage headless: the grass_expand kernel or the numpy port."""
@@ -139,15 +139,13 @@ class Simulation(BaseSimulation):
 
     Params = Params
     history = ("blade_pos",)
-    live_params = frozenset(Params.names()) - {"planes", "plane_resolution", "backend"}
 
-    def reset(self) -> None:
+    def _reset(self) -> None:
         p, rt = self.params, self.runtime
         rng = np.random.default_rng(self.seed)
         self.maps = geo.noise_maps(rng)  # book: _HeightMap, _RotationMap, _WindMap
         self.models = geo.plane_models(*p.planes, rng)  # book: PlaneDeployer
         self.program = rt.program("grass")
-        self.time, self.steps = 0.0, 0
         self.set_mesh(geo.plane_mesh(p.plane_resolution), self.models)
 
     def set_mesh(self, mesh: dict, models: np.ndarray, maps: dict | None = None) -> None:
@@ -188,7 +186,6 @@ class Simulation(BaseSimulation):
             return
         self.d_params.set(p.block(self.shader_time))
         self.program.kernel("grass_expand")(
-            self.runtime.queue,
             (self.blades,),
             None,
             self.d_tri.data,
@@ -265,13 +262,13 @@ class Simulation(BaseSimulation):
 
 @dataclass(frozen=True)
 class PyramidParams(BaseParams):
-    height: float = param(1.5, -1e4, 1e4)
+    height: float = param(1.5, -1e4, 1e4, live=True)
     """Apex distance from the triangle along object -Z, object units (book: _Height; shader default 5)."""
-    top_color: tuple[float, float, float, float] = param((0.0, 1.0, 0.0, 1.0), 0.0, 1.0)
+    top_color: tuple[float, float, float, float] = param((0.0, 1.0, 0.0, 1.0), 0.0, 1.0, live=True)
     """Apex colour, rgba (book: _TopColor in Material.mat; shader default blue)."""
-    bottom_color: tuple[float, float, float, float] = param((0.0, 0.0, 1.0, 1.0), 0.0, 1.0)
+    bottom_color: tuple[float, float, float, float] = param((0.0, 0.0, 1.0, 1.0), 0.0, 1.0, live=True)
     """Base colour, rgba (book: _BottomColor in Material.mat; shader default red)."""
-    backend: str = param("opencl", choices=("opencl", "numpy"))
+    backend: str = param("opencl", choices=("opencl", "numpy"), live=True)
     """Who runs the geometry stage headless: the pyramid_expand kernel or the numpy port."""
 
 
@@ -279,15 +276,13 @@ class PyramidSimulation(BaseSimulation):
     """Two quads: a plain one (fig. 6.2) and one drawn through the pyramid geometry shader (fig. 6.3)."""
 
     Params = PyramidParams
-    live_params = frozenset(PyramidParams.names())
 
-    def reset(self) -> None:
+    def _reset(self) -> None:
         rotation = euler_matrix(*QUAD_EULER) @ np.diag([QUAD_SCALE, QUAD_SCALE, QUAD_SCALE, 1.0])
         self.models = np.array(
             [translation(-QUAD_X, 0.0, 0.0) @ rotation, translation(QUAD_X, 0.0, 0.0) @ rotation], np.float32
         )
         self.program = self.runtime.program("grass")
-        self.time, self.steps = 0.0, 0
         self.set_mesh(geo.quad_mesh(), self.models[1])
 
     def set_mesh(self, mesh: dict, model: np.ndarray) -> None:
@@ -310,7 +305,6 @@ class PyramidSimulation(BaseSimulation):
             self.result = geo.expand_pyramid(self.mesh, self.model, p.height, p.top_color, p.bottom_color)
             return
         self.program.kernel("pyramid_expand")(
-            self.runtime.queue,
             (self.triangles,),
             None,
             self.d_tri.data,

@@ -63,32 +63,32 @@ GROWTH = 1.25
 class Params(BaseParams):
     segment_num: int = param(32, 4, 512)
     """Cells per axis N; the object cube [-0.5, 0.5]^3 has N^3 cells of size 1/N (book: segmentNum)."""
-    threshold: float = param(0.5, 0.0, 1.0)
+    threshold: float = param(0.5, 0.0, 1.0, live=True)
     """Iso value: a corner is outside (its case bit set) when its value <= threshold (book: threshold, _Threashold)."""
     time: float = param(0.0, 0.0)
     """Field time at reset, seconds (Unity: _Time.y); each step adds dt while ``animate`` is on."""
-    animate: bool = True
+    animate: bool = param(True, live=True)
     """Advance the field's time by dt every step (off: every frame polygonises the same field)."""
-    shape: str = param("spheres-book", choices=tuple(SHAPES))
+    shape: str = param("spheres-book", choices=tuple(SHAPES), live=True)
     """The field: three metaballs with the book listing's radii (0.1 + 0.025 pulse) or the repository's (0.005 +
     0.125 pulse), or the twisting kaiware sprout of Fig 7.6."""
-    normals: str = param("analytic", choices=tuple(NORMALS))
+    normals: str = param("analytic", choices=tuple(NORMALS), live=True)
     """Vertex normals: the book's resampling of the analytic field at +-1 cell, or the same differences on the grid
     (trilinear), which needs only the field buffer."""
-    path: str = param("append", choices=("append", "scan"))
+    path: str = param("append", choices=("append", "scan"), live=True)
     """OpenCL path: atomic append to a Pool (order varies, sorted by cell in the state) or classify + scan + generate
     (cell order by construction)."""
     triangle_capacity: int = param(0, 0, 1 << 26)
     """Pool size in triangles at reset; 0 = 4 N^2. The pool grows to 1.25 x the need when a frame overflows it."""
-    diffuse_color: tuple[float, float, float] = param((0.0, 1.0, 0.0), 0.0, 1.0)
+    diffuse_color: tuple[float, float, float] = param((0.0, 1.0, 0.0), 0.0, 1.0, live=True)
     """Albedo, render only (book: DiffuseColor; class default green, Sample.unity (0.3001, 0.5956, 0.2759))."""
-    metallic: float = param(0.0, 0.0, 1.0)
+    metallic: float = param(0.0, 0.0, 1.0, live=True)
     """Metallic, render only: tints the highlight with the albedo (book: metallic / _Metallic)."""
-    glossiness: float = param(0.5, 0.0, 1.0)
+    glossiness: float = param(0.5, 0.0, 1.0, live=True)
     """Smoothness, render only (book: glossiness / _Glossiness)."""
-    emission_color: tuple[float, float, float] = param((0.0, 0.0, 0.0), 0.0, 1.0)
+    emission_color: tuple[float, float, float] = param((0.0, 0.0, 0.0), 0.0, 1.0, live=True)
     """Emission colour, render only (book: EmissionColor)."""
-    emission_intensity: float = param(0.0, 0.0)
+    emission_intensity: float = param(0.0, 0.0, live=True)
     """Emission multiplier, render only (book: EmissionIntensity)."""
 
 
@@ -104,22 +104,8 @@ class Simulation(BaseSimulation):
 
     Params = Params
     history = ()
-    live_params = frozenset(
-        {
-            "threshold",
-            "animate",
-            "shape",
-            "normals",
-            "path",
-            "diffuse_color",
-            "metallic",
-            "glossiness",
-            "emission_color",
-            "emission_intensity",
-        }
-    )
 
-    def reset(self) -> None:
+    def _reset(self) -> None:
         p, rt = self.params, self.runtime
         self.n = p.segment_num
         self.cells = self.n**3
@@ -129,7 +115,6 @@ class Simulation(BaseSimulation):
         self.cell_ntri = None  # the two-pass buffers, made on first use
         self.scan_levels: dict[int, tuple] = {}
         self.field_time = p.time
-        self.time, self.steps = 0.0, 0
         self.overflowed = False  # whether the last frame needed a bigger pool
         self.overflows = 0
         self.frame_times: list[float] = []
@@ -156,7 +141,7 @@ class Simulation(BaseSimulation):
     def mc_field(self) -> None:
         """mc_field: the book's Sample at all (N+1)^3 grid points at the current field time."""
         points = (self.n + 1) ** 3
-        self.program.kernel("mc_field")(self.runtime.queue, (points,), None, self.field.data, *self._field_args())
+        self.program.kernel("mc_field")((points,), None, self.field.data, *self._field_args())
 
     def mc_polygonize_append(self, pool: Pool | None = None, capacity: int | None = None) -> None:
         """mc_polygonize_append: every cell appends its triangles to ``pool`` (default: the scene's, emptied first).
@@ -164,7 +149,6 @@ class Simulation(BaseSimulation):
         pool = pool or self.pool
         pool.set_count(0)
         self.program.kernel("mc_polygonize_append")(
-            self.runtime.queue,
             (self.cells,),
             None,
             *self._cell_args(),
@@ -179,7 +163,6 @@ class Simulation(BaseSimulation):
             self.cell_ntri = self.runtime.zeros(self.cells, np.uint32)
             self.cell_off = self.runtime.zeros(self.cells, np.uint32)
         self.program.kernel("mc_classify")(
-            self.runtime.queue,
             (self.cells,),
             None,
             self.field.data,
@@ -196,7 +179,6 @@ class Simulation(BaseSimulation):
             self.scan_levels[n] = (self.runtime.empty(groups, np.uint32), self.runtime.empty(groups, np.uint32))
         sums, offsets = self.scan_levels[n]
         self.program.kernel("scan_blocks")(
-            self.runtime.queue,
             (groups * SCAN_BLOCK_SIZE,),
             (SCAN_BLOCK_SIZE,),
             values.data,
@@ -208,14 +190,13 @@ class Simulation(BaseSimulation):
             return int(sums.get()[0])
         total = self.scan(sums, offsets, groups)
         self.program.kernel("add_block_offsets")(
-            self.runtime.queue, (round_up(n, SCAN_BLOCK_SIZE),), None, out.data, offsets.data, np.int32(n)
+            (round_up(n, SCAN_BLOCK_SIZE),), None, out.data, offsets.data, np.int32(n)
         )
         return total
 
     def mc_generate(self) -> None:
         """mc_generate: every cell writes its triangles at cell_off[cell] (needs mc_classify and scan)."""
         self.program.kernel("mc_generate")(
-            self.runtime.queue,
             (self.cells,),
             None,
             *self._cell_args(),

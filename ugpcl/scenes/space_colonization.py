@@ -73,37 +73,37 @@ class Params(BaseParams):
     """Shape of the attraction cloud: the book's sphere, the blog's hemisphere generator, or a filled cube."""
     seed_count: int = param(6, 1, 256)
     """Initial nodes, placed on random attraction points (book: seedCount)."""
-    influence_distance: float = param(1.14, 0.0, lo_open=True)
+    influence_distance: float = param(1.14, 0.0, lo_open=True, live=True)
     """An attraction pulls its nearest node within this distance, in units of `unit` (book: influenceDistance)."""
-    growth_distance: float = param(0.597, 0.0, lo_open=True)
+    growth_distance: float = param(0.597, 0.0, lo_open=True, live=True)
     """Length of one new branch, in units of `unit` (book: growthDistance)."""
-    kill_distance: float = param(0.484, 0.0, lo_open=True)
+    kill_distance: float = param(0.484, 0.0, lo_open=True, live=True)
     """An attraction this close to any node is removed, in units of `unit` (book: killDistance)."""
-    growth_speed: float = param(22.0, 0.0, lo_open=True)
+    growth_speed: float = param(22.0, 0.0, lo_open=True, live=True)
     """t grows by dt * growth_speed * mass per step, 1/s (book: growthSpeed)."""
-    mass_min: float = param(0.25, 0.0, lo_open=True)
+    mass_min: float = param(0.25, 0.0, lo_open=True, live=True)
     """Lower bound of the per-node growth-speed factor (book: massMin)."""
-    mass_max: float = param(1.0, 0.0, lo_open=True)
+    mass_max: float = param(1.0, 0.0, lo_open=True, live=True)
     """Upper bound of the per-node growth-speed factor (book: massMax)."""
-    frame: int = param(1, 1, 60)
+    frame: int = param(1, 1, 60, live=True)
     """Run the algorithm every `frame` steps (book: frame)."""
-    iterations: int = param(1, 1, 5)
+    iterations: int = param(1, 1, 5, live=True)
     """Algorithm steps per run, each with the same dt (book: iterations)."""
-    repeat_guard: bool = False
+    repeat_guard: bool = param(False, live=True)
     """A node does not emit the candidate it emitted last time (ugpcl; off = the book, whose cancelling
     attractions can drain the node pool with copies of one node)."""
     node_capacity: int = param(0, 0, 1 << 24)
     """Node slots (0: one per attraction, as the book). Fewer slots show the pool running dry."""
-    search: str = param("all_pairs", choices=("all_pairs", "grid"))
+    search: str = param("all_pairs", choices=("all_pairs", "grid"), live=True)
     """Neighbour lookups of Search, Attract and Remove: the book's loops over every slot, or a uniform grid
     (cell = the larger of influence and kill distance): same results, far fewer distance tests."""
-    render: str = param("lines", choices=("lines", "tubes"))
+    render: str = param("lines", choices=("lines", "tubes"), live=True)
     """How the view draws the edges: additive lines (book: Line scene, Edge.shader) or capsules (TubularEdge scene)."""
-    tube_radius: float = param(0.0055, 0.0, lo_open=True)
+    tube_radius: float = param(0.0055, 0.0, lo_open=True, live=True)
     """Tube radius of the view and of --mesh, cloud units (book: _Thickness 0.033 at object scale 6)."""
-    mesh_kind: str = param("tubes", choices=("tubes", "lines"))
+    mesh_kind: str = param("tubes", choices=("tubes", "lines"), live=True)
     """What --mesh writes: closed capsules per edge, or OBJ polylines (`l`)."""
-    object_scale: float = param(6.0, 0.0, lo_open=True)
+    object_scale: float = param(6.0, 0.0, lo_open=True, live=True)
     """Drawing scale of the cloud (book: the SpaceColonization object's transform), render only."""
 
     def check(self) -> None:
@@ -133,7 +133,6 @@ class NodeGrid(UniformGrid):
     def build_active(self, program, nodes, slots: int) -> None:
         padded = next_power_of_two(max(slots, 1))
         program.kernel("NodeGridHash")(
-            self.runtime.queue,
             (round_up(padded, GRID_LOCAL_SIZE),),
             None,
             nodes.data,
@@ -150,29 +149,11 @@ class Simulation(BaseSimulation):
 
     Params = Params
     history = ("node_count", "active_attraction")
-    live_params = frozenset(
-        {
-            "influence_distance",
-            "growth_distance",
-            "kill_distance",
-            "growth_speed",
-            "mass_min",
-            "mass_max",
-            "frame",
-            "iterations",
-            "repeat_guard",
-            "search",
-            "render",
-            "tube_radius",
-            "mesh_kind",
-            "object_scale",
-        }
-    )
     program_stem = "space_colonization"
 
     # {{{ setup
 
-    def reset(self) -> None:
+    def _reset(self) -> None:
         p, rt = self.params, self.runtime
         self.program = rt.program(self.program_stem)
         rng = np.random.default_rng(self.seed)
@@ -184,7 +165,7 @@ class Simulation(BaseSimulation):
         self.seed_nodes(seeds)
         self.nodes_count = self.node_pool.count()  # book: CopyNodesCount (A - seeds)
         self.edges_count = 0
-        self.time, self.steps, self.frame_index = 0.0, 0, 0
+        self.frame_index = 0
         self.last_growth_step, self.last_connect = 0, 0
         self.book_step(0.0)  # the book's Start ends with Step(0): the seeds branch at once
 
@@ -223,8 +204,7 @@ class Simulation(BaseSimulation):
         self.node_grid_stale = True
 
     def _launch(self, name: str, n: int, *args) -> None:
-        if n > 0:
-            self.program.kernel(name)(self.runtime.queue, (round_up(n, LOCAL_SIZE),), (LOCAL_SIZE,), *args)
+        self.program.kernel(name).over(n, LOCAL_SIZE, *args)
 
     # }}}
 
@@ -510,37 +490,37 @@ class SkinnedParams(BaseParams):
     """Initial nodes on random attraction points (book: seedCount)."""
     unit_scale: float = param(2.5, 1.0, 10.0)
     """Distance unit = voxel size x unit_scale (book: unitScale)."""
-    influence_distance: float = param(1.91, 0.0, lo_open=True)
+    influence_distance: float = param(1.91, 0.0, lo_open=True, live=True)
     """Influence distance in units (book scene: influenceDistance)."""
-    growth_distance: float = param(0.573, 0.0, lo_open=True)
+    growth_distance: float = param(0.573, 0.0, lo_open=True, live=True)
     """Growth distance in units (book scene: growthDistance)."""
-    kill_distance: float = param(0.398, 0.0, lo_open=True)
+    kill_distance: float = param(0.398, 0.0, lo_open=True, live=True)
     """Kill distance in units (book scene: killDistance)."""
-    growth_speed: float = param(22.0, 0.0, lo_open=True)
+    growth_speed: float = param(22.0, 0.0, lo_open=True, live=True)
     """t grows by dt * growth_speed * mass per step, 1/s (book: growthSpeed)."""
-    mass_min: float = param(0.25, 0.0, lo_open=True)
+    mass_min: float = param(0.25, 0.0, lo_open=True, live=True)
     """Lower bound of the growth-speed factor (book: massMin)."""
-    mass_max: float = param(1.0, 0.0, lo_open=True)
+    mass_max: float = param(1.0, 0.0, lo_open=True, live=True)
     """Upper bound of the growth-speed factor (book: massMax)."""
-    frame: int = param(1, 1, 60)
+    frame: int = param(1, 1, 60, live=True)
     """Run the algorithm every `frame` steps (book: frame)."""
-    iterations: int = param(1, 1, 5)
+    iterations: int = param(1, 1, 5, live=True)
     """Algorithm steps per run (book: iterations)."""
-    repeat_guard: bool = False
+    repeat_guard: bool = param(False, live=True)
     """A node does not emit its last candidate again, nor one on itself (ugpcl; off = the book)."""
     node_capacity: int = param(0, 0, 1 << 24)
     """Node slots (0: one per attraction, as the book)."""
     anim_time: float = param(0.0, 0.0)
     """Animation clock at reset, s of the clip."""
-    anim_speed: float = param(0.35, 0.0)
+    anim_speed: float = param(0.35, 0.0, live=True)
     """Clip seconds per second (book scene: Animator speed 0.35)."""
-    anim_period: float = param(2.4, 0.1)
+    anim_period: float = param(2.4, 0.1, live=True)
     """Length of the dance loop, clip seconds."""
-    animate: bool = True
+    animate: bool = param(True, live=True)
     """Play the animation (false: frozen at the current clip time). Growth never depends on it."""
-    tube_radius: float = param(0.0053, 0.0, lo_open=True)
+    tube_radius: float = param(0.0053, 0.0, lo_open=True, live=True)
     """Tube radius, figure units (book: _Thickness 0.01 on a 3.4-unit character; this figure is 1.8 tall)."""
-    mesh_kind: str = param("tubes", choices=("tubes", "lines"))
+    mesh_kind: str = param("tubes", choices=("tubes", "lines"), live=True)
     """What --mesh writes (at the current, animated pose)."""
 
     def check(self) -> None:
@@ -553,27 +533,9 @@ class SkinnedSimulation(Simulation):
     one bone every step (Animate)."""
 
     Params = SkinnedParams
-    live_params = frozenset(
-        {
-            "influence_distance",
-            "growth_distance",
-            "kill_distance",
-            "growth_speed",
-            "mass_min",
-            "mass_max",
-            "frame",
-            "iterations",
-            "repeat_guard",
-            "anim_speed",
-            "anim_period",
-            "animate",
-            "tube_radius",
-            "mesh_kind",
-        }
-    )
     program_stem = "space_colonization_skinned"
 
-    def reset(self) -> None:
+    def _reset(self) -> None:
         p, rt = self.params, self.runtime
         self.program = rt.program(self.program_stem)
         key = (p.resolution, p.sample_distance, p.tries, self.seed)
@@ -593,7 +555,7 @@ class SkinnedSimulation(Simulation):
         self.setup()
         self.seed_nodes(seeds)
         self.nodes_count, self.edges_count = self.node_pool.count(), 0
-        self.time, self.steps, self.frame_index = 0.0, 0, 0
+        self.frame_index = 0
         self.last_growth_step, self.last_connect = 0, 0
         self.anim_time = p.anim_time
         self.book_step(0.0)
@@ -823,7 +785,7 @@ class CpuSimulation(BaseSimulation):
     Params = CpuParams
     history = ("vertex_count", "point_count")
 
-    def reset(self) -> None:
+    def _reset(self) -> None:
         p = self.params
         self.rng = np.random.default_rng(self.seed)
         self.tree = ref.BlogTree()
@@ -834,7 +796,6 @@ class CpuSimulation(BaseSimulation):
         self.stage_iterations = np.zeros(2, np.int32)
         self.stalled = np.zeros(2, bool)
         self.root_stage_first_vertex = -1
-        self.time, self.steps = 0.0, 0
 
     @property
     def finished(self) -> bool:

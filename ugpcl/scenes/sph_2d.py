@@ -24,7 +24,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
 from ..benchmark import seconds_per_step
@@ -48,48 +47,48 @@ LOCAL_SIZES = (1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024)
 class Params(BaseParams):
     particle_num: int = param(8192, 2, 1 << 20)
     """Number of particles N (book: particleNum, NUM_1K..NUM_8K; any N >= 2 here)."""
-    smoothlen: float = param(0.5, 0.0, lo_open=True)
+    smoothlen: float = param(0.5, 0.0, lo_open=True, live=True)
     """Kernel radius h, world units: particles closer than h interact (book: smoothlen, "particle radius")."""
-    pressure_stiffness: float = param(0.57, 0.0)
+    pressure_stiffness: float = param(0.57, 0.0, live=True)
     """Tait coefficient B of p = B max((rho/rho0)^7 - 1, 0) (book: pressureStiffness, "Becker's coefficient")."""
-    rest_density: float = param(4.0, 0.0, lo_open=True)
+    rest_density: float = param(4.0, 0.0, lo_open=True, live=True)
     """Rest density rho0, mass per area (book: restDensity)."""
-    particle_mass: float = param(0.08, 0.0, lo_open=True)
+    particle_mass: float = param(0.08, 0.0, lo_open=True, live=True)
     """Mass of every particle (book: particleMass), folded into the kernel coefficients."""
-    viscosity: float = param(3.0, 0.0)
+    viscosity: float = param(3.0, 0.0, live=True)
     """Viscosity coefficient mu (book: viscosity)."""
-    max_allowable_timestep: float = param(1.0 / 240.0, 0.0, 1.0 / 120.0, lo_open=True)
+    max_allowable_timestep: float = param(1.0 / 240.0, 0.0, 1.0 / 120.0, lo_open=True, live=True)
     """Largest sub-step dt, s; the sub-step is min(this, frame time) (book: maxAllowableTimestep; 1/60 explodes)."""
-    wall_stiffness: float = param(3000.0, 0.0)
+    wall_stiffness: float = param(3000.0, 0.0, live=True)
     """Penalty wall strength: acceleration per unit of distance outside the box, 1/s^2 (book: wallStiffness)."""
-    iterations: int = param(4, 1, 64)
+    iterations: int = param(4, 1, 64, live=True)
     """Sub-steps per frame (book: iterations)."""
-    gravity: tuple[float, float] = param((0.0, -10.0))
+    gravity: tuple[float, float] = param((0.0, -10.0), live=True)
     """External acceleration, world units/s^2 (book: gravity; the G key toggles it off for weightless fluid)."""
     range: tuple[float, float] = param((16.0, 9.0), 0.0, lo_open=True)
     """Box [0, range.x] x [0, range.y], world units (book: range)."""
     ball_radius: float = param(5.0, 0.0, lo_open=True)
     """Radius of the disc the particles start in, centred in the box (book: Fluid2D.ballRadius); dam_break keeps its
     area."""
-    mouse_interaction_radius: float = param(1.5, 0.0, lo_open=True)
+    mouse_interaction_radius: float = param(1.5, 0.0, lo_open=True, live=True)
     """Particles closer than this to the held mouse are pushed away, world units (book: MouseInteractionRadius)."""
-    mouse_gain: float = param(100.0, 0.0)
+    mouse_gain: float = param(100.0, 0.0, live=True)
     """Push per unit of depth inside the mouse radius, 1/s^2 (book: the literal 100 in IntegrateCS)."""
-    mouse: tuple[float, float, int] = param((8.0, 4.5, 0))
+    mouse: tuple[float, float, int] = param((8.0, 4.5, 0), live=True)
     """Scripted mouse for headless runs: hold the button at (x, y) for the first N frames after reset (0: never;
     spec: --mouse x,y,frames)."""
     start: str = param("ball", choices=("ball", "dam_break"))
     """Initial particles: uniform in the centred disc (book), or the same area as a column against the left wall."""
-    variant: str = param("fixed", choices=("fixed", "book"))
+    variant: str = param("fixed", choices=("fixed", "book"), live=True)
     """book: ForceCS divides by the densities as they are; fixed: by at least the self term the density leaves out,
     which keeps spray particles (density near 0) from a viscous blow-up."""
-    search: str = param("all_pairs", choices=("all_pairs", "grid"))
+    search: str = param("all_pairs", choices=("all_pairs", "grid"), live=True)
     """Neighbour search: the book's loops over all N, or the uniform grid (DensityGridCS/ForceGridCS)."""
     local_size: int = param(256, choices=LOCAL_SIZES)
     """Work-group size (book: THREAD_SIZE_X = 1024); lowered to what the device allows."""
-    particle_radius: float = param(0.05, 0.0, lo_open=True)
+    particle_radius: float = param(0.05, 0.0, lo_open=True, live=True)
     """Half-size of each particle's billboard, world units, render only (book: FluidRenderer particleRadius)."""
-    water_color: tuple[float, float, float, float] = param((0.0, 0.462, 1.0, 1.0), 0.0, 1.0)
+    water_color: tuple[float, float, float, float] = param((0.0, 0.462, 1.0, 1.0), 0.0, 1.0, live=True)
     """Particle tint RGBA, render only (book: FluidRenderer WaterColor)."""
 
     def check(self) -> None:
@@ -150,9 +149,8 @@ class Simulation(BaseSimulation):
     default_dt = 1.0 / 60.0
     """Frame time of headless runs; each of the ``iterations`` sub-steps is min(max_allowable_timestep, this)."""
     history = ("position", "mean_density", "kinetic_energy")
-    live_params = frozenset(Params.names()) - {"particle_num", "ball_radius", "start", "range", "local_size"}
 
-    def reset(self) -> None:
+    def _reset(self) -> None:
         p, rt = self.params, self.runtime
         self.n = p.particle_num
         self.program = rt.program("sph_2d")
@@ -165,13 +163,11 @@ class Simulation(BaseSimulation):
         self._grid: UniformGrid | None = None
         self._grid_is_current = False
         self.mouse_pos, self.mouse_down = (0.0, 0.0), False  # book: screenToWorldPointPos starts at the origin
-        self.time, self.steps = 0.0, 0
 
     def _fit_local_size(self, wanted: int) -> int:
         """Largest power of two <= wanted that every kernel of the program can run with on this device."""
         names = ("DensityCS", "DensityGridCS", "PressureCS", "ForceCS", "ForceGridCS", "IntegrateCS")
-        info = cl.kernel_work_group_info.WORK_GROUP_SIZE
-        limit = min(self.program.kernel(k).get_work_group_info(info, self.runtime.device) for k in names)
+        limit = min(self.program.kernel(k).work_group_size() for k in names)
         size = wanted
         while size > max(1, limit):
             size //= 2
@@ -211,7 +207,6 @@ class Simulation(BaseSimulation):
         if p.search == "grid":
             grid = self.grid()
             self.program.kernel("DensityGridCS")(
-                self.runtime.queue,
                 self._global(),
                 (self.local_size,),
                 *args,
@@ -219,13 +214,12 @@ class Simulation(BaseSimulation):
                 *grid.search_args(),
             )
         else:
-            self.program.kernel("DensityCS")(self.runtime.queue, self._global(), (self.local_size,), *args)
+            self.program.kernel("DensityCS")(self._global(), (self.local_size,), *args)
 
     def pressure_cs(self) -> None:
         """PressureCS: Tait pressure of every particle from its density."""
         p = self.params
         self.program.kernel("PressureCS")(
-            self.runtime.queue,
             self._global(),
             (self.local_size,),
             self.density.data,
@@ -253,7 +247,6 @@ class Simulation(BaseSimulation):
         if p.search == "grid":
             grid = self.grid()
             self.program.kernel("ForceGridCS")(
-                self.runtime.queue,
                 self._global(),
                 (self.local_size,),
                 *args,
@@ -261,13 +254,12 @@ class Simulation(BaseSimulation):
                 *grid.search_args(),
             )
         else:
-            self.program.kernel("ForceCS")(self.runtime.queue, self._global(), (self.local_size,), *args)
+            self.program.kernel("ForceCS")(self._global(), (self.local_size,), *args)
 
     def integrate_cs(self, dt: float) -> None:
         """IntegrateCS: mouse, walls, gravity and the Euler update from particles_in into particles_out."""
         p = self.params
         self.program.kernel("IntegrateCS")(
-            self.runtime.queue,
             self._global(),
             (self.local_size,),
             self.particles.read.data,

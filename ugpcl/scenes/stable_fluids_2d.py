@@ -55,34 +55,34 @@ class Params(BaseParams):
     """Screen height in pixels; the grid has height >> lod rows, row 0 at the bottom (the original: Screen.height)."""
     lod: int = param(0, 0, 8)
     """Grid = screen size >> lod (book: lod)."""
-    diff: float = param(10.0, 0.0)
+    diff: float = param(10.0, 0.0, live=True)
     """Density diffusion kappa; a_d = dt*diff*w*h (book: diff; the sample scene's 10, code default 0)."""
-    visc: float = param(20.0, 0.0)
+    visc: float = param(20.0, 0.0, live=True)
     """Kinematic viscosity nu; a_v = dt*visc*w*h (book: visc; the sample scene's 20, code default 0)."""
-    velocity_coef: float = param(2.0, 0.0)
+    velocity_coef: float = param(2.0, 0.0, live=True)
     """Gain of the brush's velocity, per second (book: velocityCoef)."""
-    density_coef: float = param(2.0, 0.0)
+    density_coef: float = param(2.0, 0.0, live=True)
     """Gain of the brush's density, per second (book: densityCoef)."""
-    density_only: bool = False
+    density_only: bool = param(False, live=True)
     """Skip the velocity step; advect the density by the brush's velocity (book: isDensityOnly)."""
-    gs_iterations: int = param(2, 1, 100000)
+    gs_iterations: int = param(2, 1, 100000, live=True)
     """Jacobi sweeps per diffusion and per pressure solve (book: GS_ITERATE; the listing says 4, the code 2)."""
-    source_radius: float = param(0.022, 0.0, 1.0, lo_open=True)
+    source_radius: float = param(0.022, 0.0, 1.0, lo_open=True, live=True)
     """Brush radius in uv units of each axis (book: sourceRadius; the sample scene's 0.022, code default 0.03)."""
-    mouse_clamp: float = param(1.0, 0.0)
+    mouse_clamp: float = param(1.0, 0.0, live=True)
     """Longest brush move per frame in grid cells: the mouse delta is clamped to it (book: MouseSourceProvider)."""
-    ink_gain: float = param(5.0, 0.0)
+    ink_gain: float = param(5.0, 0.0, live=True)
     """Render only: ink colour = white*(1 - ink_gain*density) (book: Sample.shader)."""
-    variant: str = param("fixed", choices=("fixed", "book"))
+    variant: str = param("fixed", choices=("fixed", "book"), live=True)
     """fixed: Stam's divergence, back-trace clamped; book: the original's divergence, no clamp, corner typo."""
-    solver: str = param("vol1", choices=("vol1", "vol4"))
+    solver: str = param("vol1", choices=("vol1", "vol4"), live=True)
     """vol1: this chapter's step; vol4: the stripped copy in vol.4 ch.6 (no pressure sweeps, no AdvectVelocity)."""
-    stroke: str = param("circle", choices=STROKES)
+    stroke: str = param("circle", choices=STROKES, live=True)
     """Scripted brush: circle (radius 0.25 around the centre, one turn per 120 frames), line (uv 0.3 -> 0.7 at
     v = 0.5 in 120 frames), figure8, none (spec 04 section 7, replaces the mouse headless)."""
-    stroke_frames: int = param(120, 0)
+    stroke_frames: int = param(120, 0, live=True)
     """Frames the scripted stroke holds the brush down from its start; 0 = for the whole run."""
-    local_size: tuple[int, int] = param((32, 32), 1, 1024)
+    local_size: tuple[int, int] = param((32, 32), 1, 1024, live=True)
     """Work-group shape of the grid kernels (book: numthreads(32, 32, 1)); halved where the device cannot run it."""
 
     @property
@@ -103,9 +103,8 @@ class Simulation(BaseSimulation):
 
     Params = Params
     history = ("density", "kinetic_energy")
-    live_params = frozenset(Params.names()) - {"width", "height", "lod"}
 
-    def reset(self) -> None:
+    def _reset(self) -> None:
         p, rt = self.params, self.runtime
         self.w, self.h = p.grid
         self.shape = (self.h, self.w)  # numpy (H, W): row y, column x
@@ -119,7 +118,6 @@ class Simulation(BaseSimulation):
         self.pending_brush: tuple[float, float, float, float] | None = None
         self.last_brush: tuple[float, float, float, float] | None = None
         self.stroke_start = 0
-        self.time, self.steps = 0.0, 0
 
     # {{{ programs and launches
 
@@ -158,14 +156,14 @@ class Simulation(BaseSimulation):
         scalars = [a for a in args if not isinstance(a, cla.Array)]
         local = self.local_size
         size = (round_up(self.w, local[0]), round_up(self.h, local[1]))
-        self.program.kernel(name)(self.runtime.queue, size, local, *buffers, *self.dims, *scalars)
+        self.program.kernel(name)(size, local, *buffers, *self.dims, *scalars)
 
     def _boundary(self, name: str, field: cla.Array) -> None:
         """SetBoundary<name> on ``field``: the edges (reading interior cells), then the corners (reading edges)."""
         kernel = self.program.kernel(f"SetBoundary{name}")
         edges = 2 * (self.w - 2) + 2 * (self.h - 2)
         for part, size in ((BOUNDARY_EDGES, edges), (BOUNDARY_CORNERS, 4)):
-            kernel(self.runtime.queue, (size,), None, field.data, *self.dims, np.int32(part))
+            kernel((size,), None, field.data, *self.dims, np.int32(part))
 
     # }}}
 

@@ -52,33 +52,33 @@ class Params(BaseParams):
     """Grid cells along y, y = 0 at the bottom (the original takes Screen.height)."""
     depth: int = param(64, 3, 2048)
     """Grid cells along z (book: depth, a serialized field never set in any scene)."""
-    diff: float = param(10.0, 0.0)
+    diff: float = param(10.0, 0.0, live=True)
     """Density diffusion coefficient kappa; a_d = dt*diff*w*h*d (book: diff; scene 10, code default 0)."""
-    visc: float = param(20.0, 0.0)
+    visc: float = param(20.0, 0.0, live=True)
     """Kinematic viscosity nu; a_v = dt*visc*w*h*d (book: visc; scene 20, code default 0)."""
-    velocity_coef: float = param(2.0, 0.0)
+    velocity_coef: float = param(2.0, 0.0, live=True)
     """Gain of the source's velocity, per second (book: velocityCoef; 2D sample scene 2; see SCENE_DEFAULTS)."""
-    density_coef: float = param(2.0, 0.0)
+    density_coef: float = param(2.0, 0.0, live=True)
     """Gain of the source's density, per second (book: densityCoef; scene 2)."""
-    density_only: bool = False
+    density_only: bool = param(False, live=True)
     """Skip the velocity step and advect the density by the source's velocity (book: isDensityOnly)."""
-    gs_iterations: int = param(2, 1, 4096)
+    gs_iterations: int = param(2, 1, 4096, live=True)
     """Jacobi sweeps per diffusion and per pressure solve (book: GS_ITERATE = 2 in Solver3D.compute)."""
-    emitter: bool = True
+    emitter: bool = param(True, live=True)
     """Scripted source on: a continuous spherical emitter, headless runs' stand-in for a source (spec 04 proposal)."""
-    emitter_frames: int = param(0, 0)
+    emitter_frames: int = param(0, 0, live=True)
     """Frames the emitter blows from the start; 0 = the whole run (120: a puff, then the smoke drifts)."""
-    emitter_center: tuple[float, float, float] = param((0.5, 0.15, 0.5), 0.0, 1.0)
+    emitter_center: tuple[float, float, float] = param((0.5, 0.15, 0.5), 0.0, 1.0, live=True)
     """Centre c of the spherical emitter in uvw units, (0, 0, 0) = the grid's bottom-left-front corner."""
-    emitter_direction: tuple[float, float, float] = param((0.0, 1.0, 0.0), -1.0, 1.0)
+    emitter_direction: tuple[float, float, float] = param((0.0, 1.0, 0.0), -1.0, 1.0, live=True)
     """Velocity the emitter blows (its dir; the 2D brush's clamped mouse delta), before velocity_coef."""
-    source_radius: float = param(0.08, 0.0, 1.0, lo_open=True)
+    source_radius: float = param(0.08, 0.0, 1.0, lo_open=True, live=True)
     """Emitter radius r in uvw units: f = clamp(1 - |(uvw - c)/r|^2, 0, 1) (book 2D: sourceRadius)."""
-    variant: str = param("fixed", choices=("book", "fixed"))
+    variant: str = param("fixed", choices=("book", "fixed"), live=True)
     """fixed: Stam's divergence, back-trace clamped to the grid; book: the original's divergence and no clamp."""
     local_size: tuple[int, int, int] = param((8, 8, 4), 1, 1024)
     """Work-group shape of the grid kernels (book: numthreads(8, 8, 4)); halved where the device cannot run it."""
-    absorption: float = param(80.0, 0.0, lo_open=True)
+    absorption: float = param(80.0, 0.0, lo_open=True, live=True)
     """Render only: extinction of the ray-marched smoke per unit density per box length."""
 
     def check(self) -> None:
@@ -92,9 +92,8 @@ class Simulation(BaseSimulation):
 
     Params = Params
     history = ("density", "kinetic_energy")
-    live_params = frozenset(Params.names()) - {"width", "height", "depth", "local_size"}
 
-    def reset(self) -> None:
+    def _reset(self) -> None:
         p, rt = self.params, self.runtime
         self.shape = (p.depth, p.height, p.width)  # numpy (D, H, W): row z*h + y, column x
         self.dims = (np.int32(p.width), np.int32(p.height), np.int32(p.depth))
@@ -109,7 +108,6 @@ class Simulation(BaseSimulation):
         self.no_source = rt.zeros((*self.shape, 4), np.float32)  # what AdvectDensityFromExt reads with no source
         self.solver = rt.zeros((*self.shape, 4), np.float32)
         self.external_source = False
-        self.time, self.steps = 0.0, 0
 
     def _fit_local_size(self, wanted: tuple[int, int, int]) -> tuple[int, int, int]:
         """Halve an axis over the device's per-axis limit, else the largest axis, until the device accepts the shape
@@ -136,7 +134,7 @@ class Simulation(BaseSimulation):
         """Launch a grid kernel over every cell: buffers first, then w, h, d, then the scalars."""
         buffers = [a.data for a in args if isinstance(a, cla.Array)]
         scalars = [a for a in args if not isinstance(a, cla.Array)]
-        self.program.kernel(name)(self.runtime.queue, self.global_size, self.local_size, *buffers, *self.dims, *scalars)
+        self.program.kernel(name)(self.global_size, self.local_size, *buffers, *self.dims, *scalars)
 
     def _boundary(self, name: str, field) -> None:
         """SetBoundary<name> on ``field``: faces, then edges, then corners (each reads what the one before wrote)."""
@@ -144,7 +142,7 @@ class Simulation(BaseSimulation):
         sizes = ((max(w, h), max(h, d), 6), (max(w, h, d), 12), (8,))
         kernel = self.program.kernel(f"SetBoundary{name}")
         for part, size in zip(BOUNDARY_PARTS, sizes, strict=True):
-            kernel(self.runtime.queue, size, None, field.data, *self.dims, np.int32(part))
+            kernel(size, None, field.data, *self.dims, np.int32(part))
 
     # {{{ boundaries (the book's in-kernel SetBoundary* helpers)
 

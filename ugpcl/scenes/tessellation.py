@@ -194,50 +194,50 @@ def fractional_odd_triangles(level: float) -> int:
 class Params(BaseParams):
     grid: int = param(256, 8, 4096)
     """Fluid cells per side, a square grid under the square plane (the original: the window >> lod; spec: 512)."""
-    diff: float = param(10.0, 0.0)
+    diff: float = param(10.0, 0.0, live=True)
     """Density diffusion (book: diff; FuidTessellation's Solver)."""
-    visc: float = param(100.0, 0.0)
+    visc: float = param(100.0, 0.0, live=True)
     """Velocity diffusion (book: visc)."""
-    velocity_coef: float = param(4.0, 0.0)
+    velocity_coef: float = param(4.0, 0.0, live=True)
     """Brush velocity gain (book: velocityCoef)."""
-    density_coef: float = param(6.0, 0.0)
+    density_coef: float = param(6.0, 0.0, live=True)
     """Brush density gain (book: densityCoef)."""
-    density_only: bool = False
+    density_only: bool = param(False, live=True)
     """Skip the velocity step, advect by the brush (book: isDensityOnly)."""
-    gs_iterations: int = param(2, 1, 100000)
+    gs_iterations: int = param(2, 1, 100000, live=True)
     """Jacobi sweeps per diffusion (and per pressure solve in variant=fixed) (book: GS_ITERATE)."""
-    source_radius: float = param(0.072, 0.0, 1.0, lo_open=True)
+    source_radius: float = param(0.072, 0.0, 1.0, lo_open=True, live=True)
     """Brush radius in uv units (book: sourceRadius and AddSource.mat _Radius in the scene)."""
-    stroke: str = param("circle", choices=STROKES)
+    stroke: str = param("circle", choices=STROKES, live=True)
     """Scripted brush path (spec 17 section 7): circle, line, figure8 or none; the mouse overrides it."""
-    stroke_frames: int = param(0, 0)
+    stroke_frames: int = param(0, 0, live=True)
     """Frames the scripted stroke holds the brush down; 0 = every frame (spec 17: button held on all frames)."""
-    edge_length: float = param(2.0, 2.0, 50.0)
+    edge_length: float = param(2.0, 2.0, 50.0, live=True)
     """Target length of a tessellated edge on screen, pixels (book: _EdgeLength; TessellationSurface.mat 2)."""
-    displacement: float = param(0.5, 0.0, 30.0)
+    displacement: float = param(0.5, 0.0, 30.0, live=True)
     """World units per unit of density along the normal (book: _Displacement; the material's 0.5)."""
-    negative: bool = False
+    negative: bool = param(False, live=True)
     """Displace against the normal (Tessellation.shader's disp subtracts; the surface shader adds)."""
-    specular: float = param(0.366, 0.0, 1.0)
+    specular: float = param(0.366, 0.0, 1.0, live=True)
     """Render only: Blinn-Phong exponent / 128 (book: _Specular)."""
-    gloss: float = param(0.276, 0.0, 1.0)
+    gloss: float = param(0.276, 0.0, 1.0, live=True)
     """Render only: specular scale (book: _Gloss)."""
-    color: tuple[float, float, float] = param((0.0, 0.0, 0.0), 0.0, 1.0)
+    color: tuple[float, float, float] = param((0.0, 0.0, 0.0), 0.0, 1.0, live=True)
     """Render only: albedo (book: _Color; the scene's black, so only the specular shows)."""
-    spec_color: tuple[float, float, float] = param((1.0, 1.0, 1.0), 0.0, 1.0)
+    spec_color: tuple[float, float, float] = param((1.0, 1.0, 1.0), 0.0, 1.0, live=True)
     """Render only: specular colour (book: _SpecColor)."""
-    shadows: bool = True
+    shadows: bool = param(True, live=True)
     """Render only: the light's shadows (the sample: addshadow fullforwardshadows; its light casts shadows)."""
-    lighting: str = param("auto", choices=("auto", "height", "mesh"))
+    lighting: str = param("auto", choices=("auto", "height", "mesh"), live=True)
     """Render only: normals of the displaced height field (height), the plane's own as Unity's surface shader
     (mesh), or auto = mesh for variant=book, height for fixed."""
-    variant: str = param("fixed", choices=("fixed", "book"))
+    variant: str = param("fixed", choices=("fixed", "book"), live=True)
     """fixed: vol.1's full solver (Stam), bilinear displacement; book: vol.4's stripped solver, Point sampling."""
-    screen_size: tuple[int, int] = param((1920, 1080), 16, 16384)
+    screen_size: tuple[int, int] = param((1920, 1080), 16, 16384, live=True)
     """Screen the headless tess_factors are evaluated for, pixels (book: _ScreenParams)."""
-    mesh_level: int = param(8, 1, 64)
+    mesh_level: int = param(8, 1, 64, live=True)
     """Headless mesh_vertices: (10*level + 1)^2 vertices over the plane."""
-    local_size: tuple[int, int] = param((32, 32), 1, 1024)
+    local_size: tuple[int, int] = param((32, 32), 1, 1024, live=True)
     """Work-group shape of the fluid kernels (book: THREAD_X, THREAD_Y = 32)."""
 
     @property
@@ -271,13 +271,11 @@ class Simulation(BaseSimulation):
 
     Params = Params
     history = ("density", "velocity")
-    live_params = frozenset(Params.names()) - {"grid"}
 
-    def reset(self) -> None:
+    def _reset(self) -> None:
         self.fluid = FluidSimulation(self.runtime, self.fluid_params(), self.seed)
         self.stroke_uv: list[tuple[float, float]] = []
         self.stroke_vel: list[tuple[float, float]] = []
-        self.time, self.steps = 0.0, 0
 
     def fluid_params(self) -> FluidParams:
         """The 2D fluid's Params: vol.4's solver for variant=book, vol.1's for fixed, on a grid x grid square."""

@@ -1,0 +1,156 @@
+// boids.cl: Unity Graphics Programming vol.1 ch.3, "Boids simulation on the GPU" (spec 03).
+// Kernels, in host call order per step:
+//   1. ForceCS        boid_data -> boid_force: separation/alignment/cohesion against all n boids, streamed through
+//                     __local tiles of SIMULATION_BLOCK_SIZE boids (two barriers per tile, as the book)
+//      ForceCS_naive  the same sums read straight from global memory (reference and benchmark baseline)
+//      ForceCS_grid   the same sums over the boids in the 27 grid cells around each boid (the chapter's summary:
+//                     "a grid would make the neighbour search faster"); the grid comes from grid.cl, built by
+//                     ugpcl.grid.UniformGrid on the positions with cell size = the largest radius
+//   2. IntegrateCS    boid_data, boid_force -> boid_data: wall avoidance, explicit Euler, |velocity| <= max_speed
+// Build defines: SIMULATION_BLOCK_SIZE = work-group size = tile length (book: 256).
+// Differences from the book: n need not be a multiple of the block size (padding work-items run every barrier
+// and write nothing); a rule whose average direction is the zero vector steers by 0 instead of normalize(0) = NaN.
+#include "boid.h"  // Boid {float4 velocity, position}: 32 B; numpy mirror BOID_DTYPE
+#include "grid.h"  // grid_cell_coord, grid_cell_id, grid_item: the sorted-key uniform grid
+
+#ifndef SIMULATION_BLOCK_SIZE
+#error "build with -D SIMULATION_BLOCK_SIZE=<work-group size>"
+#endif
+
+// Book: limit(vec, max) - shorten vec to length max_length when it is longer.
+inline float3 limit(float3 vec, float max_length) {
+    float len = sqrt(dot(vec, vec));
+    return (len > max_length && len > 0.0f) ? vec * (max_length / len) : vec;
+}
+
+// Book: avoidWall(position) - per axis +1 below the box, -1 above it, 0 inside.
+inline float3 avoid_wall(float3 position, float3 wall_center, float3 wall_size) {
+    float3 lower = wall_center - wall_size * 0.5f;
+    float3 upper = wall_center + wall_size * 0.5f;
+    return (float3)(position.x < lower.x ? 1.0f : (position.x > upper.x ? -1.0f : 0.0f),
+                    position.y < lower.y ? 1.0f : (position.y > upper.y ? -1.0f : 0.0f),
+                    position.z < lower.z ? 1.0f : (position.z > upper.z ? -1.0f : 0.0f));
+}
+
+// The three rules' running sums for one boid (the book's sepPosSum/sepCount, aliVelSum/aliCount, cohPosSum/cohCount).
+typedef struct {
+    float3 sep_pos_sum;
+    float3 ali_vel_sum;
+    float3 coh_pos_sum;
+    int sep_count, ali_count, coh_count;
+} Neighbourhood;
+
+typedef struct {
+    float separate_radius, alignment_radius, cohesion_radius;
+    float max_speed, max_steer_force;
+    float separate_weight, alignment_weight, cohesion_weight;
+    float max_radius2;  // square of the largest radius (not a book variable: the early exit above)
+} Rules;
+
+// Book's inner loop body: boid at p_position meets a neighbour; dist > 0 skips itself and coincident boids.
+inline void meet(Neighbourhood* nb, const Rules* r, float3 p_position, float3 n_position, float3 n_velocity) {
+    float3 diff = p_position - n_position;
+    float dist2 = dot(diff, diff);
+    if (dist2 > r->max_radius2) return;  // outside every radius: the common case once the flock spreads out
+    float dist = sqrt(dist2);
+    if (dist > 0.0f && dist <= r->separate_radius) {  // separation: away from the neighbour, weighted by 1/dist
+        nb->sep_pos_sum += normalize(diff) / dist;
+        nb->sep_count++;
+    }
+    if (dist > 0.0f && dist <= r->alignment_radius) {  // alignment: the neighbours' mean velocity
+        nb->ali_vel_sum += n_velocity;
+        nb->ali_count++;
+    }
+    if (dist > 0.0f && dist <= r->cohesion_radius) {  // cohesion: the neighbours' centroid
+        nb->coh_pos_sum += n_position;
+        nb->coh_count++;
+    }
+}
+
+// desired direction at full speed minus the current velocity, limited to max_steer_force.
+inline float3 steer(float3 desired, float3 p_velocity, const Rules* r) {
+    float len = sqrt(dot(desired, desired));
+    if (len == 0.0f) return (float3)(0.0f);  // no direction to steer to (book: normalize(0) = NaN)
+    return limit(desired * (r->max_speed / len) - p_velocity, r->max_steer_force);
+}
+
+inline float4 steering_force(const Neighbourhood* nb, const Rules* r, float3 p_position, float3 p_velocity) {
+    float3 force = (float3)(0.0f);
+    if (nb->ali_count > 0) force += steer(nb->ali_vel_sum / (float)nb->ali_count, p_velocity, r) * r->alignment_weight;
+    if (nb->coh_count > 0) force += steer(nb->coh_pos_sum / (float)nb->coh_count - p_position, p_velocity, r) * r->cohesion_weight;
+    if (nb->sep_count > 0) force += steer(nb->sep_pos_sum / (float)nb->sep_count, p_velocity, r) * r->separate_weight;
+    return (float4)(force, 0.0f);
+}
+
+#define RULES_ARGS                                                                                        \
+    float separate_radius, float alignment_radius, float cohesion_radius, float max_speed, float max_steer_force, \
+        float separate_weight, float alignment_weight, float cohesion_weight
+#define RULES_INIT                                                                                        \
+    {separate_radius, alignment_radius, cohesion_radius, max_speed, max_steer_force,                       \
+     separate_weight, alignment_weight, cohesion_weight,                                                   \
+     pow(fmax(separate_radius, fmax(alignment_radius, cohesion_radius)), 2.0f)}
+
+__kernel __attribute__((reqd_work_group_size(SIMULATION_BLOCK_SIZE, 1, 1)))
+void ForceCS(const __global Boid* boid_data, __global float4* boid_force, int n, RULES_ARGS) {
+    __local Boid tile[SIMULATION_BLOCK_SIZE];  // book: groupshared BoidData boid_data[SIMULATION_BLOCK_SIZE]
+    const Rules rules = RULES_INIT;
+    const int p_id = get_global_id(0);
+    const int lid = get_local_id(0);
+    const Boid me = boid_data[min(p_id, n - 1)];  // padding work-items (p_id >= n) borrow a real boid, write nothing
+    Neighbourhood nb = {(float3)(0.0f), (float3)(0.0f), (float3)(0.0f), 0, 0, 0};
+
+    for (int base = 0; base < n; base += SIMULATION_BLOCK_SIZE) {
+        tile[lid] = boid_data[min(base + lid, n - 1)];  // past n: a duplicate that the loop below never reads
+        barrier(CLK_LOCAL_MEM_FENCE);                   // tile complete before anyone reads it
+        const int tile_len = min(SIMULATION_BLOCK_SIZE, n - base);
+        for (int t = 0; t < tile_len; t++) meet(&nb, &rules, me.position.xyz, tile[t].position.xyz, tile[t].velocity.xyz);
+        barrier(CLK_LOCAL_MEM_FENCE);  // everyone done reading before the next iteration overwrites the tile
+    }
+    if (p_id < n) boid_force[p_id] = steering_force(&nb, &rules, me.position.xyz, me.velocity.xyz);
+}
+
+__kernel void ForceCS_naive(const __global Boid* boid_data, __global float4* boid_force, int n, RULES_ARGS) {
+    const int p_id = get_global_id(0);
+    if (p_id >= n) return;
+    const Rules rules = RULES_INIT;
+    const Boid me = boid_data[p_id];
+    Neighbourhood nb = {(float3)(0.0f), (float3)(0.0f), (float3)(0.0f), 0, 0, 0};
+    for (int j = 0; j < n; j++) meet(&nb, &rules, me.position.xyz, boid_data[j].position.xyz, boid_data[j].velocity.xyz);
+    boid_force[p_id] = steering_force(&nb, &rules, me.position.xyz, me.velocity.xyz);
+}
+
+__kernel void IntegrateCS(__global Boid* boid_data, const __global float4* boid_force, int n, float dt,
+                          float max_speed, float4 wall_center, float4 wall_size, float avoid_wall_weight) {
+    const int p_id = get_global_id(0);
+    if (p_id >= n) return;
+    Boid b = boid_data[p_id];
+    float3 force = boid_force[p_id].xyz + avoid_wall(b.position.xyz, wall_center.xyz, wall_size.xyz) * avoid_wall_weight;
+    float3 velocity = limit(b.velocity.xyz + force * dt, max_speed);  // apply steering, then the speed limit
+    b.velocity = (float4)(velocity, 0.0f);
+    b.position = (float4)(b.position.xyz + velocity * dt, 0.0f);
+    boid_data[p_id] = b;
+}
+
+// Cell size >= every radius, so the 3x3x3 cells around a boid hold every neighbour that counts. Neighbours are
+// visited cell by cell (not in index order as above): sums agree with ForceCS up to float rounding.
+__kernel void ForceCS_grid(const __global Boid* boid_data, __global float4* boid_force, int n, RULES_ARGS,
+                           float4 origin, float cell_size, int4 dims, const __global ulong* keys,
+                           const __global int* cell_start, const __global int* cell_end) {
+    const int p_id = get_global_id(0);
+    if (p_id >= n) return;
+    const Rules rules = RULES_INIT;
+    const Boid me = boid_data[p_id];
+    Neighbourhood nb = {(float3)(0.0f), (float3)(0.0f), (float3)(0.0f), 0, 0, 0};
+    const int4 home = grid_cell_coord(me.position.xyz, origin.xyz, cell_size, dims);
+    for (int dz = -1; dz <= 1; dz++)
+        for (int dy = -1; dy <= 1; dy++)
+            for (int dx = -1; dx <= 1; dx++) {
+                const int cell = grid_cell_id(home + (int4)(dx, dy, dz, 0), dims);
+                if (cell < 0) continue;  // beyond the grid's border
+                for (int k = cell_start[cell]; k < cell_end[cell]; k++) {
+                    const Boid other = boid_data[grid_item(keys[k])];
+                    meet(&nb, &rules, me.position.xyz, other.position.xyz, other.velocity.xyz);
+                }
+            }
+    boid_force[p_id] = steering_force(&nb, &rules, me.position.xyz, me.velocity.xyz);
+}

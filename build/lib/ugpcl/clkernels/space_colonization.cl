@@ -1,0 +1,285 @@
+// space_colonization.cl: Unity Graphics Programming vol.4 ch.1, "GPU-Based Space Colonization Algorithm" (spec 12),
+// the book's SpaceColonization.compute. Host: ugpcl/scenes/space_colonization.py (Simulation).
+// Kernels, in host call order (reset: Setup, Seed, then one step; every step: Search .. Remove while the node pool
+// is not empty, then always Grow):
+//   1. Setup        all node slots -> node pool (Append), nodes[i].active = 0
+//   2. Seed         seeds -> nodes (Consume a slot each): t = 1, from = -1, mass = lerp(min, max, nrand)
+//   3. Search       nodes -> attractions.nearest/found: nearest active node closer than the influence distance
+//   4. Attract      attractions, nodes -> candidates (Append): node + growth * mean unit vector to its attractions,
+//                   for every active node with t >= 1 that some attraction found
+//   5. Connect      candidates (Consume), node pool (Consume) -> nodes (new child, t = 0), edges (Append)
+//   6. Remove       nodes -> attractions.active = 0 within the kill distance of any active node
+//   7. Grow         nodes.t += dT * mass, clamped to 1
+// Uniform-grid variants (ugpcl, Params.search = grid; same results, see below):
+//   NodeGridHash   nodes -> grid keys of the active nodes (inactive slots get GRID_EMPTY_KEY and sort last);
+//                  then grid.cl's BitonicSortStep, GridClearCells and GridFindCellRanges (UniformGrid.sort)
+//   Search_grid    as Search, visiting the 3x3x3 node-grid cells around the attraction (cell >= influence)
+//   Attract_grid   as Attract, visiting the 3x3x3 attraction-grid cells around the node (cell >= influence)
+//   Remove_grid    as Remove, visiting the 3x3x3 node-grid cells around the attraction (cell >= kill)
+// Build defines: none (the book's [numthreads(128,1,1)] is the host's local size).
+// Atomics: only the Append/Consume counters of pool.h (node pool, candidates, edges). The host never dispatches
+// more consumers than items: Connect runs min(free node slots, candidates) work-items.
+// Races: none. Every kernel writes only its own record; Connect reads a parent (an active node) and writes a child
+// (a slot taken from the pool, hence inactive), so the two sets never meet. The book's Connect also rewrites the
+// parent unchanged (`_Nodes[c.node] = n1`): a no-op left out here.
+// Differences from the book: an attraction closer than MIN_DIRECTION to its node is skipped in Attract (the book
+// adds normalize(0) = NaN); `repeat_guard` (default off) stops a node emitting its last candidate again or one that
+// sits on the node itself.
+#include "grid.h"
+#include "pool.h"
+#include "space_colonization.h"
+
+// CreateNode: take a free slot and return a fresh active record for it (-1 when the pool is empty, which the host
+// rules out by never dispatching more consumers than free slots).
+inline int create_node(volatile __global int* node_pool_counter, const __global int* node_pool, Node* node) {
+    const int slot = pool_consume(node_pool_counter);  // old count - 1 = the top of the pool (LIFO)
+    node->px = node->py = node->pz = 0.0f;
+    node->t = 0.0f;
+    node->offset = 0.0f;
+    node->from = -1;
+    node->mass = 0.0f;
+    node->active = 1u;
+    return slot < 0 ? -1 : node_pool[slot];
+}
+
+// CreateEdge: append (a, b) to the edge buffer (capacity 2A in the book; only A - seeds edges can ever exist).
+inline void create_edge(volatile __global int* edge_counter, __global Edge* edges, int edge_capacity, int a, int b) {
+    const int slot = pool_append(edge_counter, edge_capacity);  // old count = the next free entry
+    if (slot >= 0) edges[slot] = (Edge){a, b};
+}
+
+__kernel void Setup(__global Node* nodes, int node_count, volatile __global int* node_pool_counter,
+                    __global int* node_pool) {
+    const int i = get_global_id(0);
+    if (i >= node_count) return;
+    const int slot = pool_append(node_pool_counter, node_count);  // old count = where index i goes
+    if (slot >= 0) node_pool[slot] = i;
+    nodes[i].active = 0u;
+}
+
+__kernel void Seed(const __global float* seeds, int seed_count, __global Node* nodes,
+                   volatile __global int* node_pool_counter, const __global int* node_pool, float mass_min,
+                   float mass_max) {
+    const int i = get_global_id(0);
+    if (i >= seed_count) return;
+    Node n;
+    const int j = create_node(node_pool_counter, node_pool, &n);
+    if (j < 0) return;
+    const float3 seed = vload3(i, seeds);  // seeds are packed float3 (12-byte stride, as the book's buffer)
+    n.px = seed.x;
+    n.py = seed.y;
+    n.pz = seed.z;
+    n.t = 1.0f;  // seeds are grown: they branch in the first step
+    n.offset = 0.0f;
+    n.from = -1;
+    n.mass = mix(mass_min, mass_max, nrand((float2)((float)i, 0.0f)));  // book: nrand(id.xy)
+    nodes[j] = n;
+}
+
+__kernel void Search(__global Attraction* attractions, int attraction_count, const __global Node* nodes,
+                     int node_count, float influence_distance) {
+    const int idx = get_global_id(0);
+    if (idx >= attraction_count) return;
+    Attraction attr = attractions[idx];
+    attr.found = 0u;
+    if (!attr.active) return;  // book: inactive attractions keep their stale `found`
+    float min_dist = influence_distance;
+    for (int i = 0; i < node_count; i++) {  // every node slot, inactive ones skipped (the book's loop)
+        const Node n = nodes[i];
+        if (!n.active) continue;
+        const float d = length(POSITION(attr) - POSITION(n));
+        if (d < min_dist) {  // strict: ties keep the lower index
+            min_dist = d;
+            attr.nearest = i;
+            attr.found = 1u;
+        }
+    }
+    attractions[idx] = attr;
+}
+
+// Sum of unit vectors from node `idx` to the attractions that chose it; false when there are none.
+inline bool attract_direction(Attraction attr, int idx, float3 position, float3* dir, int* counter) {
+    if (!(attr.active && attr.found && attr.nearest == idx)) return false;
+    const float3 to_attraction = POSITION(attr) - position;
+    if (length(to_attraction) < MIN_DIRECTION) return false;  // a seed sitting on its attraction: no direction
+    *dir += normalize(to_attraction);
+    *counter += 1;
+    return true;
+}
+
+// The end of Attract: the candidate at the mean direction (not renormalised: a step <= growth_distance).
+inline void emit_candidate(int idx, float3 position, float3 dir, int counter, float growth_distance, int repeat_guard,
+                           __global float4* last_candidate, volatile __global int* candidate_counter,
+                           __global Candidate* candidates, int candidate_capacity) {
+    if (counter == 0) return;
+    const float3 c = position + dir / (float)counter * growth_distance;
+    if (repeat_guard) {
+        if (repeats(last_candidate[idx], position, c, growth_distance)) return;
+        last_candidate[idx] = (float4)(c, 1.0f);
+    }
+    const int slot = pool_append(candidate_counter, candidate_capacity);  // old count = this candidate's entry
+    if (slot >= 0) candidates[slot] = (Candidate){c.x, c.y, c.z, idx};
+}
+
+__kernel void Attract(const __global Attraction* attractions, int attraction_count, const __global Node* nodes,
+                      int node_count, float growth_distance, int repeat_guard, __global float4* last_candidate,
+                      volatile __global int* candidate_counter, __global Candidate* candidates,
+                      int candidate_capacity) {
+    const int idx = get_global_id(0);
+    if (idx >= node_count) return;
+    const Node n = nodes[idx];
+    if (!(n.active && n.t >= 1.0f)) return;  // only grown nodes branch
+    float3 dir = (float3)(0.0f);
+    int counter = 0;
+    for (int i = 0; i < attraction_count; i++) attract_direction(attractions[i], idx, POSITION(n), &dir, &counter);
+    emit_candidate(idx, POSITION(n), dir, counter, growth_distance, repeat_guard, last_candidate, candidate_counter,
+                   candidates, candidate_capacity);
+}
+
+__kernel void Connect(__global Node* nodes, volatile __global int* node_pool_counter, const __global int* node_pool,
+                      volatile __global int* candidate_counter, const __global Candidate* candidates,
+                      volatile __global int* edge_counter, __global Edge* edges, int edge_capacity,
+                      int connect_count, float mass_min, float mass_max) {
+    const int id = get_global_id(0);
+    if (id >= connect_count) return;  // host: connect_count = min(free node slots, candidates)
+    const int slot = pool_consume(candidate_counter);  // old count - 1: the last appended candidates go first
+    if (slot < 0) return;
+    const Candidate c = candidates[slot];
+    Node n2;
+    const int idx2 = create_node(node_pool_counter, node_pool, &n2);
+    if (idx2 < 0) return;
+    n2.px = c.px;
+    n2.py = c.py;
+    n2.pz = c.pz;
+    n2.offset = nodes[c.node].offset + 1.0f;  // one edge deeper than its parent
+    n2.from = c.node;
+    n2.mass = mix(mass_min, mass_max, nrand((float2)((float)c.node, (float)idx2)));
+    nodes[idx2] = n2;
+    create_edge(edge_counter, edges, edge_capacity, c.node, idx2);
+}
+
+__kernel void Remove(__global Attraction* attractions, int attraction_count, const __global Node* nodes,
+                     int node_count, float kill_distance) {
+    const int idx = get_global_id(0);
+    if (idx >= attraction_count) return;
+    Attraction attr = attractions[idx];
+    if (!attr.active) return;
+    for (int i = 0; i < node_count; i++) {
+        const Node n = nodes[i];
+        if (n.active && distance(POSITION(attr), POSITION(n)) < kill_distance) {
+            attr.active = 0u;
+            attractions[idx] = attr;
+            return;
+        }
+    }
+}
+
+__kernel void Grow(__global Node* nodes, int node_count, float dT) {
+    const int idx = get_global_id(0);
+    if (idx >= node_count) return;
+    Node n = nodes[idx];
+    if (!n.active) return;
+    n.t = clamp(n.t + dT * n.mass, 0.0f, 1.0f);  // book: saturate; dT = dt * growthSpeed
+    nodes[idx] = n;
+}
+
+// {{{ uniform-grid variants (ugpcl): the same results as the all-pairs loops above
+
+// Keys of the active nodes; inactive slots and padding get GRID_EMPTY_KEY, which sorts after every real key, so
+// the first (active node count) sorted keys are exactly the live nodes.
+__kernel void NodeGridHash(const __global Node* nodes, int node_count, int padded, float4 origin, float cell_size,
+                           int4 dims, __global ulong* keys) {
+    const int i = get_global_id(0);
+    if (i >= padded) return;
+    if (i >= node_count || !nodes[i].active) {
+        keys[i] = GRID_EMPTY_KEY;
+        return;
+    }
+    const int cell = grid_cell_id(grid_cell_coord(POSITION(nodes[i]), origin.xyz, cell_size, dims), dims);
+    keys[i] = ((ulong)cell << 32) | (ulong)i;
+}
+
+#define GRID_ARGS                                                                                       \
+    float4 origin, float cell_size, int4 dims, const __global ulong *keys, const __global int *cell_start, \
+        const __global int *cell_end
+
+// Search through the node grid. Equal distances keep the lower node index, as the all-pairs loop's strict `<` in
+// index order does, so the result is the same whatever order the cells are visited in.
+__kernel void Search_grid(__global Attraction* attractions, int attraction_count, const __global Node* nodes,
+                          float influence_distance, GRID_ARGS) {
+    const int idx = get_global_id(0);
+    if (idx >= attraction_count) return;
+    Attraction attr = attractions[idx];
+    attr.found = 0u;
+    if (!attr.active) return;
+    float min_dist = influence_distance;
+    const int4 home = grid_cell_coord(POSITION(attr), origin.xyz, cell_size, dims);
+    for (int dz = -1; dz <= 1; dz++)
+        for (int dy = -1; dy <= 1; dy++)
+            for (int dx = -1; dx <= 1; dx++) {
+                const int cell = grid_cell_id(home + (int4)(dx, dy, dz, 0), dims);
+                if (cell < 0) continue;  // outside the grid
+                for (int k = cell_start[cell]; k < cell_end[cell]; k++) {
+                    const int i = grid_item(keys[k]);
+                    const Node n = nodes[i];
+                    const float d = length(POSITION(attr) - POSITION(n));
+                    if (d < min_dist || (attr.found && d == min_dist && i < attr.nearest)) {
+                        min_dist = d;
+                        attr.nearest = i;
+                        attr.found = 1u;
+                    }
+                }
+            }
+    attractions[idx] = attr;
+}
+
+// Attract through the attraction grid. The host stores the attractions sorted by this grid's cell, so the cells
+// visited in increasing id order yield the attractions in increasing index: the same sum in the same order as
+// the all-pairs loop (bitwise equal candidates).
+__kernel void Attract_grid(const __global Attraction* attractions, const __global Node* nodes, int node_count,
+                           float growth_distance, int repeat_guard, __global float4* last_candidate,
+                           volatile __global int* candidate_counter, __global Candidate* candidates,
+                           int candidate_capacity, GRID_ARGS) {
+    const int idx = get_global_id(0);
+    if (idx >= node_count) return;
+    const Node n = nodes[idx];
+    if (!(n.active && n.t >= 1.0f)) return;
+    float3 dir = (float3)(0.0f);
+    int counter = 0;
+    const int4 home = grid_cell_coord(POSITION(n), origin.xyz, cell_size, dims);
+    for (int dz = -1; dz <= 1; dz++)
+        for (int dy = -1; dy <= 1; dy++)
+            for (int dx = -1; dx <= 1; dx++) {
+                const int cell = grid_cell_id(home + (int4)(dx, dy, dz, 0), dims);
+                if (cell < 0) continue;
+                for (int k = cell_start[cell]; k < cell_end[cell]; k++)
+                    attract_direction(attractions[grid_item(keys[k])], idx, POSITION(n), &dir, &counter);
+            }
+    emit_candidate(idx, POSITION(n), dir, counter, growth_distance, repeat_guard, last_candidate, candidate_counter,
+                   candidates, candidate_capacity);
+}
+
+__kernel void Remove_grid(__global Attraction* attractions, int attraction_count, const __global Node* nodes,
+                          float kill_distance, GRID_ARGS) {
+    const int idx = get_global_id(0);
+    if (idx >= attraction_count) return;
+    Attraction attr = attractions[idx];
+    if (!attr.active) return;
+    const int4 home = grid_cell_coord(POSITION(attr), origin.xyz, cell_size, dims);
+    for (int dz = -1; dz <= 1; dz++)
+        for (int dy = -1; dy <= 1; dy++)
+            for (int dx = -1; dx <= 1; dx++) {
+                const int cell = grid_cell_id(home + (int4)(dx, dy, dz, 0), dims);
+                if (cell < 0) continue;
+                for (int k = cell_start[cell]; k < cell_end[cell]; k++) {
+                    const Node n = nodes[grid_item(keys[k])];
+                    if (distance(POSITION(attr), POSITION(n)) < kill_distance) {
+                        attr.active = 0u;
+                        attractions[idx] = attr;
+                        return;
+                    }
+                }
+            }
+}
+
+// }}}

@@ -1,0 +1,149 @@
+"""Generated parts of README.md and docs/chapters/*.md, and the pictures in docs/img/.
+
+    python -m ugpcl.docs tables   rewrite every generated block (make docs)
+    python -m ugpcl.docs check    exit 1 when a generated block is stale (a test runs this)
+    python -m ugpcl.docs images [SCENE ...]   render docs/img/<scene>.png for every (or the named) scene (make png)
+
+A block is the text between ``<!-- BEGIN generated:KIND [SCENE] -->`` and ``<!-- END generated -->``;
+KIND is ``scenes`` (the table of every scene), ``keys`` (one scene's keys), ``all-keys`` or ``params``.
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+from pathlib import Path
+
+from .cli import format_table
+from .scenes import get, scenes
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = [ROOT / "README.md", *sorted((ROOT / "docs" / "chapters").glob("*.md"))]
+BLOCK = re.compile(r"(<!-- BEGIN generated:([\w-]+)(?: (\w+))? -->\n)(.*?)(<!-- END generated -->)", re.S)
+
+
+def chapter_doc(scene) -> Path | None:
+    chapters = ROOT / "docs" / "chapters"
+    matches = sorted({*chapters.glob(f"*-{scene.stem}.md"), *chapters.glob(f"*-{scene.stem.replace('_', '-')}.md")})
+    return matches[0] if matches else None
+
+
+def markdown_table(rows: list[dict]) -> str:
+    columns = list(rows[0])
+    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+    lines += ["| " + " | ".join(str(row[c]).replace("|", "\\|") for c in columns) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def scenes_table(relative_to: Path) -> str:
+    rows = []
+    for name, scene in scenes().items():
+        doc = chapter_doc(scene)
+        link = f"[{scene.stem}]({Path(*_relative(doc, relative_to))})" if doc else scene.stem
+        rows.append({"scene": f"`{name}`", "what you see": scene.summary, "chapter": link})
+    return markdown_table(rows)
+
+
+def _relative(path: Path, start: Path) -> tuple[str, ...]:
+    return Path(__import__("os").path.relpath(path, start)).parts
+
+
+def keys_table(name: str) -> str:
+    from ugpcl.viewer.app import keys_markdown
+
+    return keys_markdown(get(name))
+
+
+def all_keys() -> str:
+    from ugpcl.viewer.app import MOUSE_HELP, SHARED_KEYS
+    from ugpcl.viewer.views import view_class
+
+    parts = ["Every scene:", "", markdown_table([{"key": f"`{k.key}`", "action": k.help} for k in SHARED_KEYS])]
+    parts += ["", f"and the {MOUSE_HELP}.", ""]
+    for name, scene in scenes().items():
+        keys = view_class(scene).keys
+        if keys:
+            rows = [{"key": f"`{k.key}`", "action": k.help} for k in keys]
+            parts += [f"`{name}`:", "", markdown_table(rows), ""]
+    return "\n".join(parts).rstrip()
+
+
+def params_table(name: str) -> str:
+    scene = get(name)
+    rows = scene.simulation.Params.table()
+    for row in rows:
+        if row["name"] in scene.defaults:
+            row["default"] = str(scene.defaults[row["name"]])
+        row["name"] = f"`{row['name']}`"
+    return markdown_table(rows)
+
+
+def render_block(kind: str, scene: str | None, path: Path) -> str:
+    if kind == "scenes":
+        return scenes_table(path.parent)
+    if kind == "all-keys":
+        return all_keys()
+    if kind == "keys":
+        return keys_table(scene)
+    if kind == "params":
+        return params_table(scene)
+    raise ValueError(f"{path}: unknown generated block {kind!r}")
+
+
+def regenerate(path: Path) -> str:
+    text = path.read_text()
+    return BLOCK.sub(lambda m: m[1] + render_block(m[2], m[3], path) + "\n" + m[5], text)
+
+
+def tables(check: bool = False) -> int:
+    stale = []
+    for path in DOCS:
+        new = regenerate(path)
+        if new != path.read_text():
+            stale.append(path)
+            if not check:
+                path.write_text(new)
+    if check and stale:
+        print("stale generated blocks (run `make docs`): " + ", ".join(str(p.relative_to(ROOT)) for p in stale))
+        return 1
+    return 0
+
+
+def images(names: list[str] | None = None) -> int:
+    from ugpcl.viewer.offscreen import render_png
+
+    from .runtime import Runtime
+
+    runtime = Runtime()
+    out = ROOT / "docs" / "img"
+    rows = []
+    for name, scene in scenes().items():
+        if names and name not in names:
+            continue
+        preview = dict(scene.preview)
+        steps = preview.pop("steps", 300)
+        sim = scene.create(runtime, 0, **preview)
+        for _ in range(steps):
+            sim.step()
+        render_png(scene, sim, out / f"{name}.png", (800, 450))
+        rows.append({"scene": name, "steps": steps, "overrides": preview or "-", "picture": f"docs/img/{name}.png"})
+        print(f"wrote docs/img/{name}.png", file=sys.stderr)
+    print(format_table(rows))
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    command = argv[0] if argv else "tables"
+    if command == "tables":
+        return tables()
+    if command == "check":
+        return tables(check=True)
+    if command == "images":
+        return images(argv[1:])
+    print(__doc__, file=sys.stderr)
+    return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

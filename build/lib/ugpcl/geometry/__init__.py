@@ -1,0 +1,1 @@
+"""CPU-side geometry: mesh exporters and other algorithms that run on the host."""

@@ -1,0 +1,311 @@
+"""The scene interface every chapter implements (DESIGN.md, "Scene interface").
+
+* ``Params``: a frozen dataclass whose defaults are the book's values. Fields declared with ``param()`` carry
+  their range; construction validates every field and raises ``ValueError`` naming it, the range and the value.
+* ``Simulation(runtime, params, seed)``: ``reset()``, ``step(dt)``, ``state() -> dict`` (exactly what ``.npz``
+  holds) and ``stats() -> dict``. One method per book kernel; ``step`` calls them in the book's order.
+* ``Scene``: a name the CLI and viewer know (``ugpcl run boids``), bound to a Simulation class and, for scenes
+  that are variants of one chapter, parameter overrides.
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import inspect
+import json
+import math
+import typing
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+# {{{ parameters
+
+
+def param(default, lo=None, hi=None, *, lo_open: bool = False, choices=None, live: bool = False):
+    """A Params field with its book default and allowed range ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``) or
+    ``choices``. For tuple fields the range applies to every component. ``live``: a change takes effect on the
+    next step; changing a field that is not live resets the simulation (``Simulation.update``)."""
+    return field(
+        default=default, metadata={"lo": lo, "hi": hi, "lo_open": lo_open, "choices": choices, "live": live}
+    )
+
+
+def _describe_range(meta) -> str:
+    if meta.get("choices") is not None:
+        return "one of " + "|".join(str(c) for c in meta["choices"])
+    lo, hi = meta.get("lo"), meta.get("hi")
+    if lo is None and hi is None:
+        return "any"
+    left = "(" if meta.get("lo_open") or lo is None else "["
+    return f"in {left}{'-inf' if lo is None else lo}, {'inf' if hi is None else hi}]"
+
+
+def _parse_bool(text: str) -> bool:
+    lowered = text.strip().lower()
+    if lowered in ("1", "true", "yes", "on"):
+        return True
+    if lowered in ("0", "false", "no", "off"):
+        return False
+    raise ValueError
+
+
+@dataclass(frozen=True)
+class Params:
+    """Base of every scene's parameters. Subclasses add fields and may extend ``check()``."""
+
+    def __post_init__(self):
+        hints = typing.get_type_hints(type(self))
+        for f in dataclasses.fields(self):
+            object.__setattr__(self, f.name, self._coerce(f.name, hints[f.name], getattr(self, f.name)))
+            self._check_range(f, getattr(self, f.name))
+        self.check()
+
+    def check(self) -> None:
+        """Cross-field checks; raise ``ValueError`` naming the fields."""
+
+    @staticmethod
+    def _coerce(name: str, kind, value):
+        origin = typing.get_origin(kind)
+        if origin is tuple:
+            parts = typing.get_args(kind)
+            if not isinstance(value, list | tuple | np.ndarray) or len(value) != len(parts):
+                raise ValueError(f"{name} must be {len(parts)} numbers, got {value!r}")
+            return tuple(Params._coerce(name, p, v) for p, v in zip(parts, value, strict=True))
+        if kind is bool:
+            if isinstance(value, bool | np.bool_):
+                return bool(value)
+        elif kind is int:
+            if isinstance(value, int | np.integer) and not isinstance(value, bool):
+                return int(value)
+        elif kind is float:
+            if isinstance(value, int | float | np.integer | np.floating) and not isinstance(value, bool):
+                if not math.isfinite(value):
+                    raise ValueError(f"{name} must be a finite number, got {value!r}")
+                return float(value)
+        elif kind is str:
+            if isinstance(value, str):
+                return value
+        else:
+            return value
+        raise ValueError(f"{name} must be of type {kind.__name__}, got {value!r}")
+
+    @staticmethod
+    def _check_range(f: dataclasses.Field, value) -> None:
+        meta = f.metadata
+        if not meta:
+            return
+        for v in value if isinstance(value, tuple) else (value,):
+            bad = meta["choices"] is not None and v not in meta["choices"]
+            if meta["lo"] is not None:
+                bad |= v <= meta["lo"] if meta["lo_open"] else v < meta["lo"]
+            if meta["hi"] is not None:
+                bad |= v > meta["hi"]
+            if bad:
+                raise ValueError(f"{f.name} must be {_describe_range(meta)}, got {value!r}")
+
+    # {{{ conversions for the CLI, .npz and docs
+
+    @classmethod
+    def names(cls) -> list[str]:
+        return [f.name for f in dataclasses.fields(cls)]
+
+    @classmethod
+    def live_names(cls) -> frozenset[str]:
+        """Fields declared ``param(..., live=True)``: changing them needs no reset."""
+        return frozenset(f.name for f in dataclasses.fields(cls) if f.metadata.get("live"))
+
+    @classmethod
+    def parse(cls, name: str, text: str):
+        """Convert the text of ``--set name=text`` with the field's type (tuples: comma-separated)."""
+        if name not in cls.names():
+            raise ValueError(f"unknown parameter {name!r}; valid: {', '.join(cls.names())}")
+        kind = typing.get_type_hints(cls)[name]
+        parts = typing.get_args(kind) if typing.get_origin(kind) is tuple else None
+        try:
+            if parts:
+                items = [t.strip() for t in text.split(",")]
+                if len(items) != len(parts):
+                    raise ValueError
+                return tuple(_parse_one(p, t) for p, t in zip(parts, items, strict=True))
+            return _parse_one(kind, text)
+        except ValueError:
+            shape = ",".join(p.__name__ for p in parts) if parts else kind.__name__
+            raise ValueError(f"{name} expects {shape}, got {text!r}") from None
+
+    def replace(self, **changes) -> Params:
+        unknown = sorted(set(changes) - set(self.names()))
+        if unknown:
+            raise ValueError(f"unknown parameter {unknown[0]!r}; valid: {', '.join(self.names())}")
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+    def to_json(self, **extra) -> str:
+        return json.dumps({**self.to_dict(), **extra})
+
+    @classmethod
+    def table(cls) -> list[dict[str, str]]:
+        """One row per field: name, default, range and the attribute docstring (for ``ugpcl params`` and docs)."""
+        docs = _field_docs(cls)
+        return [
+            {
+                "name": f.name,
+                "default": _show(f.default),
+                "range": _describe_range(f.metadata) if f.metadata else "any",
+                "meaning": docs.get(f.name, ""),
+            }
+            for f in dataclasses.fields(cls)
+        ]
+
+    # }}}
+
+
+def _parse_one(kind, text: str):
+    if kind is bool:
+        return _parse_bool(text)
+    if kind is int:
+        return int(text, 0)
+    if kind is float:
+        return float(text)
+    return text
+
+
+def _show(value) -> str:
+    if isinstance(value, tuple):
+        return "(" + ", ".join(_show(v) for v in value) + ")"
+    if isinstance(value, float):
+        return f"{value:g}"
+    return str(value)
+
+
+def _field_docs(cls) -> dict[str, str]:
+    """Attribute docstrings (the string literal under each field) of a dataclass and its bases."""
+    docs: dict[str, str] = {}
+    for klass in reversed(cls.__mro__):
+        try:
+            tree = ast.parse(inspect.getsource(klass).lstrip() if klass.__module__ != "builtins" else "")
+        except (OSError, TypeError, SyntaxError):
+            continue
+        body = tree.body[0].body if tree.body and isinstance(tree.body[0], ast.ClassDef) else []
+        for node, nxt in zip(body, body[1:], strict=False):
+            if isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+                if (
+                    isinstance(nxt, ast.Expr)
+                    and isinstance(nxt.value, ast.Constant)
+                    and isinstance(nxt.value.value, str)
+                ):
+                    docs[node.target.id] = " ".join(nxt.value.value.split())
+    return docs
+
+
+# }}}
+
+# {{{ simulation
+
+
+class Simulation:
+    """Base of every scene's simulation; subclasses set ``Params`` and implement the four methods."""
+
+    Params: ClassVar[type[Params]] = Params
+    default_dt: ClassVar[float] = 1.0 / 60.0
+    """Fixed step for headless runs (the book uses Time.deltaTime)."""
+    history: ClassVar[tuple[str, ...]] = ()
+    """State arrays that ``--every K`` stacks into ``<name>_history``."""
+
+    def __init__(self, runtime, params: Params | None = None, seed: int = 0):
+        self.runtime = runtime
+        self.params = params if params is not None else self.Params()
+        if not isinstance(self.params, self.Params):
+            raise TypeError(f"{type(self).__name__} needs {self.Params.__qualname__}, got {type(self.params).__name__}")
+        if not isinstance(seed, int | np.integer) or seed < 0:
+            raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+        self.seed = int(seed)
+        self.reset()
+
+    def reset(self) -> None:
+        """Back to the initial state for the current params and seed: time and step count to 0, then the
+        chapter's own ``_reset()`` (buffers, programs, initial kernels)."""
+        self.time, self.steps = 0.0, 0
+        self._reset()
+
+    def _reset(self) -> None:
+        raise NotImplementedError
+
+    def step(self, dt: float | None = None) -> None:
+        raise NotImplementedError
+
+    def state(self) -> dict[str, np.ndarray]:
+        raise NotImplementedError
+
+    def stats(self) -> dict[str, Any]:
+        return {"steps": self.steps, "time": self.time}
+
+    def update(self, **changes) -> None:
+        """Change parameters (validated); reset unless every changed one is live (``param(..., live=True)``)."""
+        new = self.params.replace(**changes)
+        changed = {k for k in changes if getattr(new, k) != getattr(self.params, k)}
+        self.params = new
+        if changed - new.live_names():
+            self.reset()
+
+    def _advance(self, dt: float) -> None:
+        """Bookkeeping shared by every ``step``."""
+        self.time += dt
+        self.steps += 1
+
+
+def check_dt(dt: float | None, default: float) -> float:
+    """The step to use: ``default`` for None; otherwise a finite dt > 0 (else ValueError naming ``dt``)."""
+    if dt is None:
+        return default
+    if not (isinstance(dt, int | float | np.floating) and math.isfinite(dt) and 0 < dt <= 1.0):
+        raise ValueError(f"dt must be in (0, 1], got {dt!r}")
+    return float(dt)
+
+
+# }}}
+
+# {{{ scenes
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A runnable name: ``simulation`` with ``defaults`` applied to its Params.
+
+    ``defaults`` is the one way a scene changes the values of its Params class (the book's scene files differ from
+    the script defaults; CellularGrowthSphere.unity from CellularGrowth.unity). A Params subclass adds fields; it
+    never re-declares an inherited one to change its default."""
+
+    name: str
+    simulation: type[Simulation]
+    summary: str
+    defaults: dict = field(default_factory=dict)
+    view: str | None = None
+    """Name of the view class in ``viewer/views/<stem>.py`` (None: the module's ``View``)."""
+    preview: dict = field(default_factory=lambda: {"steps": 300})
+    """How docs/img/<name>.png is made (``make png``): ``steps`` and parameter overrides."""
+
+    @property
+    def stem(self) -> str:
+        return self.simulation.__module__.rsplit(".", 1)[-1]
+
+    def params(self, **overrides) -> Params:
+        return self.simulation.Params(**{**self.defaults, **overrides})
+
+    def table(self) -> list[dict[str, str]]:
+        """``Params.table()`` with this scene's defaults (``ugpcl params``, the chapter pages)."""
+        rows = self.simulation.Params.table()
+        for row in rows:
+            if row["name"] in self.defaults:
+                row["default"] = _show(self.defaults[row["name"]])
+        return rows
+
+    def create(self, runtime, seed: int = 0, **overrides) -> Simulation:
+        return self.simulation(runtime, self.params(**overrides), seed)
+
+
+# }}}

@@ -1,0 +1,255 @@
+"""Boids on the GPU: Reynolds flocking of N boids in a box (vol.1 ch.3; spec 03).
+
+Kernel order per step: ``ForceCS`` (steering forces against all N boids through ``__local`` tiles) then
+``IntegrateCS`` (wall avoidance, speed limit, explicit Euler). ``variant=naive`` swaps ForceCS for
+``ForceCS_naive``, the same sums without local memory; ``variant=grid`` for ``ForceCS_grid``, which visits only
+the boids in the 27 uniform-grid cells around each boid (the chapter's summary suggests it; spec section 9).
+
+Differences from the book: N need not be a multiple of the block size (the book dispatches floor(N/256) groups
+and reads past the buffer otherwise); a rule whose mean direction is the zero vector steers by 0 instead of
+``normalize(0)`` = NaN; the block size drops to the device's limit (halving) when 256 does not fit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pyopencl.cltypes as cltypes
+
+from ..benchmark import seconds_per_step
+from ..grid import UniformGrid
+from ..runtime import round_up
+from ..scene import Params as BaseParams
+from ..scene import Scene, check_dt, param
+from ..scene import Simulation as BaseSimulation
+
+BOID_DTYPE = np.dtype([("velocity", "<f4", 4), ("position", "<f4", 4)])
+"""Mirror of ``Boid`` in clkernels/include/boid.h (32 bytes)."""
+MAX_GRID_CELLS = 1 << 21
+"""Cap on the cells of variant=grid (the book's box with radius 2 needs 16^3 = 4096)."""
+
+INIT_POSITION_RADIUS = 1.0
+"""Boids start uniformly inside a ball of this radius (book: Random.insideUnitSphere * 1.0)."""
+INIT_SPEED = 0.1
+"""Initial velocities are uniform inside a ball of this radius (book: Random.insideUnitSphere * 0.1)."""
+
+
+@dataclass(frozen=True)
+class Params(BaseParams):
+    max_object_num: int = param(16384, 1, 1 << 22)
+    """Number of boids N (book: MaxObjectNum, inspector range 256-32768)."""
+    cohesion_neighborhood_radius: float = param(2.0, 0.0, lo_open=True)
+    """Neighbours closer than this pull towards their centroid, world units (book: _CohesionNeighborhoodRadius)."""
+    alignment_neighborhood_radius: float = param(2.0, 0.0, lo_open=True)
+    """Neighbours closer than this share their mean velocity, world units (book: _AlignmentNeighborhoodRadius)."""
+    separate_neighborhood_radius: float = param(1.0, 0.0, lo_open=True)
+    """Neighbours closer than this push apart, world units (book: _SeparateNeighborhoodRadius)."""
+    max_speed: float = param(5.0, 0.0, lo_open=True)
+    """Speed limit and target speed of every steering rule, units/s (book: _MaxSpeed)."""
+    max_steer_force: float = param(0.5, 0.0)
+    """Length limit of each rule's steering force (book: _MaxSteerForce)."""
+    cohesion_weight: float = param(1.0, 0.0)
+    """Weight of the cohesion force (book: _CohesionWeight)."""
+    alignment_weight: float = param(1.0, 0.0)
+    """Weight of the alignment force (book: _AlignmentWeight)."""
+    separate_weight: float = param(3.0, 0.0)
+    """Weight of the separation force (book: _SeparateWeight)."""
+    avoid_wall_weight: float = param(10.0, 0.0)
+    """Push back per axis while a boid is outside the box (book: _AvoidWallWeight)."""
+    wall_center: tuple[float, float, float] = param((0.0, 0.0, 0.0))
+    """Centre of the box, world units (book: _WallCenter)."""
+    wall_size: tuple[float, float, float] = param((32.0, 32.0, 32.0), 0.0, lo_open=True)
+    """Edge lengths of the box, world units (book: _WallSize)."""
+    simulation_block_size: int = param(256, choices=(1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024))
+    """Work-group size = tile length of ForceCS (book: SIMULATION_BLOCK_SIZE); halved if the device cannot run it."""
+    object_scale: tuple[float, float, float] = param((0.1, 0.2, 0.5), 0.0, lo_open=True)
+    """Scale of the instanced cube drawn per boid, render only (book: ObjectScale)."""
+    variant: str = param("tiled", choices=("tiled", "naive", "grid"))
+    """ForceCS flavour: the book's local-memory tiles, the plain global-memory loop, or the uniform grid."""
+
+
+class Simulation(BaseSimulation):
+    """N boids: ForceCS then IntegrateCS each step."""
+
+    Params = Params
+    history = ("position", "velocity")
+    live_params = frozenset(Params.names()) - {"max_object_num", "simulation_block_size"}
+
+    def reset(self) -> None:
+        p, rt = self.params, self.runtime
+        self.n = p.max_object_num
+        # largest power of two <= simulation_block_size that the device runs ForceCS with (spec 03 section 5)
+        self.block_size, self.program = rt.fitted_program(
+            "boids", ("ForceCS",), p.simulation_block_size, define="SIMULATION_BLOCK_SIZE"
+        )
+        self.boid_data = rt.to_device(initial_boids(self.n, self.seed))
+        self.boid_force = rt.zeros(self.n, cltypes.float4)
+        self.grid = None  # built on first use by variant=grid
+        self.time, self.steps = 0.0, 0
+
+    # {{{ kernels, in the book's order
+
+    def _rules(self) -> tuple:
+        p = self.params
+        return tuple(
+            np.float32(v)
+            for v in (
+                p.separate_neighborhood_radius,
+                p.alignment_neighborhood_radius,
+                p.cohesion_neighborhood_radius,
+                p.max_speed,
+                p.max_steer_force,
+                p.separate_weight,
+                p.alignment_weight,
+                p.cohesion_weight,
+            )
+        )
+
+    def force_cs(self) -> None:
+        """ForceCS (ForceCS_naive, ForceCS_grid): steering force of every boid against its neighbours."""
+        variant = self.params.variant
+        name = {"tiled": "ForceCS", "naive": "ForceCS_naive", "grid": "ForceCS_grid"}[variant]
+        grid_args = ()
+        if variant == "grid":
+            grid = self._neighbour_grid()
+            grid.build(self.boid_data, self.n, stride=BOID_DTYPE.itemsize // 4, offset=4)  # floats 4..6: position
+            grid_args = (*grid.geometry_args(), *grid.search_args())
+        self.program.kernel(name)(
+            self.runtime.queue,
+            (round_up(self.n, self.block_size),),
+            (self.block_size,) if variant == "tiled" else None,
+            self.boid_data.data,
+            self.boid_force.data,
+            np.int32(self.n),
+            *self._rules(),
+            *grid_args,
+        )
+
+    def _neighbour_grid(self) -> UniformGrid:
+        """A grid over the wall box with cells as large as the largest radius (coarser if that would need more
+        than MAX_GRID_CELLS cells); boids outside the box fall in its border cells, which keeps the search exact."""
+        p = self.params
+        radius = max(p.separate_neighborhood_radius, p.alignment_neighborhood_radius, p.cohesion_neighborhood_radius)
+        size = np.asarray(p.wall_size, float)
+        cell = max(radius, float(np.cbrt(np.prod(size) / MAX_GRID_CELLS)))
+        key = (tuple(p.wall_center), tuple(size), cell)
+        if self.grid is None or self.grid_key != key:
+            lower = np.asarray(p.wall_center) - size / 2
+            self.grid = UniformGrid.covering(self.runtime, self.n, lower, lower + size, cell)
+            self.grid_key = key
+        return self.grid
+
+    def integrate_cs(self, dt: float) -> None:
+        """IntegrateCS: wall force, velocity += force*dt (limited to max_speed), position += velocity*dt."""
+        p = self.params
+        self.program.kernel("IntegrateCS")(
+            self.runtime.queue,
+            (round_up(self.n, self.block_size),),
+            (self.block_size,),
+            self.boid_data.data,
+            self.boid_force.data,
+            np.int32(self.n),
+            np.float32(dt),
+            np.float32(p.max_speed),
+            cltypes.make_float4(*p.wall_center, 0.0),
+            cltypes.make_float4(*p.wall_size, 0.0),
+            np.float32(p.avoid_wall_weight),
+        )
+
+    # }}}
+
+    def step(self, dt: float | None = None) -> None:
+        dt = check_dt(dt, self.default_dt)
+        self.force_cs()  # book order: ForceCS, then IntegrateCS
+        self.integrate_cs(dt)
+        self._advance(dt)
+
+    def boids(self) -> np.ndarray:
+        """The raw Boid records (N,) of BOID_DTYPE, as the view uploads them."""
+        return self.boid_data.get()
+
+    def set_boids(self, position, velocity) -> None:
+        """Place boids by hand (tests, experiments); N stays the same."""
+        data = np.zeros(self.n, BOID_DTYPE)
+        data["position"][:, :3] = position
+        data["velocity"][:, :3] = velocity
+        self.boid_data.set(data)
+
+    def state(self) -> dict[str, np.ndarray]:
+        data = self.boids()
+        return {
+            "position": np.ascontiguousarray(data["position"][:, :3]),
+            "velocity": np.ascontiguousarray(data["velocity"][:, :3]),
+            "force": np.ascontiguousarray(self.boid_force.get().view(np.float32).reshape(-1, 4)[:, :3]),
+        }
+
+    def stats(self) -> dict:
+        speed = np.linalg.norm(self.boids()["velocity"][:, :3], axis=1)
+        return {
+            **super().stats(),
+            "boids": self.n,
+            "variant": self.params.variant,
+            "block size": self.block_size,
+            "mean speed": float(speed.mean()),
+        }
+
+
+def initial_boids(n: int, seed: int) -> np.ndarray:
+    """Positions uniform in a ball of INIT_POSITION_RADIUS, velocities uniform in a ball of INIT_SPEED (seeded)."""
+    rng = np.random.default_rng(seed)
+    data = np.zeros(n, BOID_DTYPE)
+    data["position"][:, :3] = inside_unit_sphere(rng, n) * INIT_POSITION_RADIUS
+    data["velocity"][:, :3] = inside_unit_sphere(rng, n) * INIT_SPEED
+    return data
+
+
+def inside_unit_sphere(rng: np.random.Generator, n: int) -> np.ndarray:
+    """Unity's Random.insideUnitSphere: n points uniform in the unit ball."""
+    direction = rng.normal(size=(n, 3))
+    direction /= np.maximum(np.linalg.norm(direction, axis=1, keepdims=True), 1e-12)
+    return direction * rng.random((n, 1)) ** (1.0 / 3.0)
+
+
+FLOCK_WARMUP_STEPS = 300
+"""Steps (dt 1/60) from the book's start before the "flocking" bench rows: the boids have spread through the box."""
+
+
+def bench(runtime, sizes=None) -> list[dict]:
+    """ms per step and pair interactions/s (N^2 per step; for the grid too, as the all-pairs work it replaces) for
+    each N and ForceCS variant, at the book's start (every boid within every radius of every other: the worst
+    case) and once the flock has spread out."""
+    sizes = sizes or ([16384, 65536] if runtime.is_gpu else [1024, 4096])
+    rows = []
+    for n in sizes:
+        sims = {v: Simulation(runtime, Params(max_object_num=n, variant=v), seed=0) for v in ("tiled", "naive", "grid")}
+        for phase in ("start", "flocking"):
+            if phase == "flocking":
+                for _ in range(FLOCK_WARMUP_STEPS):
+                    sims["tiled"].step()
+                state = sims["tiled"].state()
+                for variant in ("naive", "grid"):
+                    sims[variant].set_boids(state["position"], state["velocity"])
+            for variant, sim in sims.items():
+                seconds = seconds_per_step(sim, max_steps=50)
+                rows.append(
+                    {
+                        "N": n,
+                        "state": phase,
+                        "variant": variant,
+                        "ms/step": seconds * 1e3,
+                        "interactions/s": n * n / seconds,
+                        "steps/s": 1.0 / seconds,
+                    }
+                )
+    return rows
+
+
+SCENES = [
+    Scene(
+        "boids",
+        Simulation,
+        "GPU boids: flocking with local-memory tiles (vol.1 ch.3)",
+        preview={"steps": 600, "max_object_num": 4096},
+    )
+]

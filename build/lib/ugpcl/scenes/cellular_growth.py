@@ -1,0 +1,687 @@
+"""GPU-based cellular growth: cells that grow, repel and divide, alone or joined into a network of springs
+(Unity Graphics Programming vol.3 ch.4, after iGeo's "Cell Division and Growth Algorithm 1"; spec 11).
+
+Three scenes, one kernel file (``clkernels/cellular_growth.cl``):
+
+* ``cellular_growth_particles`` (the book's CellularGrowthParticleOnly.cs): reset = ``InitParticles``; each step
+  ``EmitParticles`` (while emitting), ``UpdateParticles`` (ping-pong, then swap) and, every ``divide_interval``
+  seconds, Divide = ``GetDividableParticles`` then ``DivideParticles``.
+* ``cellular_growth`` (CellularGrowth.cs): reset = ``InitParticles``, ``InitEdges``, ``EmitParticles`` of one cell;
+  each step ``iterations`` x (``UpdateEdges``, ``SpringEdges``, ``UpdateParticles``) and every ``divide_interval``
+  Divide = ``GetDividableEdges`` then ``DivideUnconnectedParticles`` (no dividable edge) or the pattern's kernel,
+  ``DivideEdgesClosed`` (a growing ring) or ``DivideEdgesBranch`` (a growing tree).
+* ``cellular_growth_sphere`` (CellularGrowthSphere.unity): the network scene with the sphere scene's values, drawn
+  as lit sphere impostors.
+
+The host limits every consuming dispatch by the pool counts as the book does (its ``CopyCount`` = ``Pool.count()``):
+emit ``min(emit_count, pool)``, divide particles ``min(dividable, max_divide_count, pool)``, divide edges
+``min(dividable, max_divide_count, particle pool, edge pool)``.
+
+Differences from the book (``variant=fixed``, the default; ``variant=book`` keeps the book's host limits):
+the Closed limit uses edge pool // 2, since a triangle split takes two edge slots, and
+``DivideUnconnectedParticles`` lets only min(particle pool, edge pool) work-items divide (a ticket counter) and reads
+parents from a snapshot (the book's launch can race on a slot turning from dead to child). A consume that finds a
+pool empty returns no slot and is counted in ``faults`` (HLSL: undefined behaviour), so ``variant=book`` runs out of
+slots safely. ``book_text`` selects the four formulas printed in the book instead of the repository's (which made the
+figures). ``search=grid`` finds repulsion partners through ``ugpcl.grid.UniformGrid`` instead of all pairs.
+``normalize(0)`` is guarded everywhere it could occur. ``seed`` shifts the book's clock ``_Time`` (every random draw
+is ``nrand`` of an index and the time) by ``SEED_CLOCK_OFFSET`` seconds per seed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pyopencl as cl
+import pyopencl.cltypes as cltypes
+
+from ..benchmark import seconds_per_call, seconds_per_step
+from ..buffers import PingPong, Pool
+from ..grid import UniformGrid
+from ..runtime import round_up
+from ..scene import Params as BaseParams
+from ..scene import Scene, check_dt, param
+from ..scene import Simulation as BaseSimulation
+
+PARTICLE_DTYPE = np.dtype(
+    [
+        ("position", "<f4", 2),
+        ("velocity", "<f4", 2),
+        ("radius", "<f4"),
+        ("threshold", "<f4"),
+        ("links", "<i4"),
+        ("alive", "<u4"),
+    ]
+)
+"""Mirror of ``Particle`` in clkernels/include/cellular_growth.h (32 bytes; book: Particle_t)."""
+EDGE_DTYPE = np.dtype([("a", "<i4"), ("b", "<i4"), ("force", "<f4", 2), ("alive", "<u4")])
+"""Mirror of ``Edge`` (20 bytes; book: Edge_t; the device struct spells the force as fx, fy)."""
+
+GROUP_SIZE = 128
+"""Work-group size of every kernel (book: #define THREAD [numthreads(128, 1, 1)])."""
+INITIAL_EMIT_COUNT = 1
+"""Cells the network scenes emit at the origin on reset (book: EmitParticlesKernel(Vector2.zero, 1))."""
+MAX_RADIUS = 1.0
+"""No radius ever exceeds 1: emitted thresholds are 1 and a child's is at most 2 x max(r / 2, 0.1) <= 1."""
+GRID_CELL_MARGIN = 1.001
+"""The grid cell is this much larger than the largest contact distance 2 x MAX_RADIUS x repulsion (float rounding)."""
+SEED_CLOCK_OFFSET = 100.0
+"""Seconds added to the kernels' clock (the book's _Time) per unit of seed: seed 0 is the book's clock."""
+PATTERNS = ("closed", "branch")
+"""Divide patterns (book: enum DividePattern { Closed, Branch })."""
+
+
+# {{{ parameters
+
+
+@dataclass(frozen=True)
+class ParticleParams(BaseParams):
+    count: int = param(8192, 2, 1 << 20)
+    """Capacity of particles, edges and every pool (book: count; scenes 8192, script default 4096)."""
+    size: float = param(0.9, 0.1, 1.5)
+    """Render scale of a cell: its quad is radius x 2 x size wide (book: size)."""
+    grow: float = param(0.25, 0.01, 1.0)
+    """Growth rate per second: radius += dt x grow x radius (book text: + dt x grow) (book: grow, _Grow)."""
+    divide_interval: float = param(0.5, 0.02, 3.0)
+    """Seconds between Divide calls (book: divideInterval)."""
+    max_divide_count: int = param(32, 1, 128)
+    """Most divisions per Divide call (book: maxDivideCount)."""
+    drag: float = param(0.975, 0.1, 1.0)
+    """Velocity damping factor per update (book: drag, _Drag)."""
+    limit: float = param(5.0, 0.1, 5.0)
+    """Largest step per update, world units, and largest speed (book: limit, _Limit)."""
+    repulsion: float = param(1.0, 1.0, 5.0)
+    """Cells closer than (ra + rb) x repulsion push apart (book: repulsion, _Repulsion)."""
+    emit_count: int = param(8, 1, 1 << 20)
+    """Cells per emit call while emitting (book: EmitParticlesKernel's emitCount; 8 in the repository, 32 in the
+    text)."""
+    emit_frames: int = param(10, 0, 1 << 20)
+    """Headless script: the first emit_frames steps emit emit_count cells around the origin (the book emits while the
+    left mouse button is held)."""
+    search: str = param("all_pairs", choices=("all_pairs", "grid"))
+    """Repulsion partners: the book's loop over every slot, or the 3x3 cells of a uniform grid (ugpcl)."""
+    variant: str = param("fixed", choices=("book", "fixed"))
+    """Host limits of the divide kernels: the book's, or with the two-edge Closed guard and the
+    DivideUnconnectedParticles ticket and snapshot (see the module docstring)."""
+    book_text: bool = param(False)
+    """Use the formulas printed in the book (linear growth, child threshold lerp 1.25-2, random offset radius x 0.25,
+    no wobble) instead of the repository's."""
+    camera: str = param("fit", choices=("fit", "book"))
+    """Headless PNG camera: fit the live cells (+10 %) or the book's fixed orthographic view (size 10 at (0, 1))."""
+
+
+@dataclass(frozen=True)
+class Params(ParticleParams):
+    """The network scene (CellularGrowth.unity); its own defaults where the scene differs from ParticleOnly."""
+
+    grow: float = param(0.25, 0.01, 1.0)
+    divide_interval: float = param(0.25, 0.02, 3.0)
+    max_divide_count: int = param(64, 1, 128)
+    drag: float = param(0.985, 0.1, 1.0)
+    limit: float = param(1.0, 0.1, 5.0)
+    repulsion: float = param(2.2, 1.0, 5.0)
+    emit_frames: int = param(0, 0, 1 << 20)
+    spring: float = param(5.0, 1.0, 10.0)
+    """Edge spring strength (book: spring, _Spring)."""
+    pattern: str = param("closed", choices=PATTERNS)
+    """Divide pattern: closed (a ring, fig 4.6-4.8) or branch (a tree, fig 4.9-4.12) (book: pattern)."""
+    max_link: int = param(3, 2, 6)
+    """An edge is not dividable when both its cells have this many links (book: maxLink, _MaxLink)."""
+    iterations: int = param(2, 1, 16)
+    """UpdateEdges, SpringEdges, UpdateParticles passes per step (book: iterations)."""
+    render: str = param("edges", choices=("edges", "discs", "spheres"))
+    """Look of the view (V key): discs joined by edge lines, discs only, or lit sphere impostors."""
+    sphere_depth: str = param("radius", choices=("radius", "book"))
+    """Depth of a sphere impostor's surface: radius x size (correct) or the book's constant size (ParticleSphere)."""
+
+
+SPHERE_DEFAULTS = {
+    "size": 1.45,
+    "grow": 0.5,
+    "divide_interval": 0.1,
+    "max_divide_count": 64,
+    "drag": 0.925,
+    "limit": 2.0,
+    "repulsion": 2.45,
+    "spring": 4.5,
+    "pattern": "closed",
+    "max_link": 3,
+    "render": "spheres",
+}
+"""CellularGrowthSphere.unity's values (spec 11 section 5)."""
+
+
+# }}}
+
+
+def _launch(sim, name: str, n: int, *args) -> None:
+    """Run kernel ``name`` over n work-items in groups of GROUP_SIZE (nothing when n <= 0)."""
+    if n > 0:
+        sim.program.kernel(name)(sim.runtime.queue, (round_up(n, GROUP_SIZE),), (GROUP_SIZE,), *args)
+
+
+class ParticleSimulation(BaseSimulation):
+    """CellularGrowthParticleOnly.cs: cells that grow, repel and divide; no edges."""
+
+    Params = ParticleParams
+    history = ("alive_count", "edge_count")
+    live_params = frozenset(ParticleParams.names()) - {"count", "book_text"}
+    has_edges = False
+
+    # {{{ setup
+
+    def reset(self) -> None:
+        p, rt = self.params, self.runtime
+        self.program = rt.program("cellular_growth", BOOK_TEXT=p.book_text)
+        if getattr(self, "count", None) == p.count:
+            self.reset_particles()  # the R key: live slots back to the pool, no reallocation
+            if self.has_edges:
+                self.reset_edges()
+        else:
+            self._allocate(p.count)
+            self.init_particles()
+            if self.has_edges:
+                self.init_edges()
+        self.faults.fill(0)
+        self.time, self.steps, self.divides = 0.0, 0, 0
+        self.next_divide = p.divide_interval  # book: IDivider yields one frame, then WaitForSeconds(divideInterval)
+        self.emit_point: tuple[float, float] | None = None
+        self.grid, self.grid_key = None, None
+        self._start()
+
+    def _start(self) -> None:
+        """What the scene's Start() does after the init kernels."""
+
+    def _allocate(self, count: int) -> None:
+        rt = self.runtime
+        self.count = count
+        self.particles = PingPong(rt.zeros(count, PARTICLE_DTYPE), rt.zeros(count, PARTICLE_DTYPE))
+        self.particle_pool = Pool(rt, count, np.int32, "particle_pool")  # free particle slots
+        self.dividable = Pool(rt, count, np.int32, "dividable")  # particle (or edge) indices to divide
+        self.faults = rt.zeros(1, np.int32)  # consumes that found a pool empty
+        self.edges = rt.zeros(count if self.has_edges else 1, EDGE_DTYPE)
+        self.edge_pool = Pool(rt, count, np.int32, "edge_pool") if self.has_edges else None
+        self.snapshot = rt.zeros(count, PARTICLE_DTYPE) if self.has_edges else None
+        self.tickets = rt.zeros(1, np.int32)
+
+    def clock(self, time: float | None = None) -> np.float32:
+        """The kernels' _Time: seconds since reset (default: now), shifted by the seed."""
+        return np.float32((self.time if time is None else time) + self.seed * SEED_CLOCK_OFFSET)
+
+    # }}}
+
+    # {{{ kernels, in the book's order
+
+    def init_particles(self) -> None:
+        """InitParticles: every slot dead, every index appended to the particle pool."""
+        self.particle_pool.set_count(0)
+        _launch(
+            self,
+            "InitParticles",
+            self.count,
+            self.particles.read.data,
+            np.int32(self.count),
+            self.particle_pool.counter.data,
+            self.particle_pool.items.data,
+        )
+
+    def emit_particles(self, point=(0.0, 0.0), emit_count: int | None = None, time: float | None = None) -> int:
+        """EmitParticles: min(emit_count, pool) new cells 1 unit around ``point``; returns how many."""
+        emit_count = self.params.emit_count if emit_count is None else int(emit_count)
+        n = max(0, min(emit_count, self.particle_pool.count()))  # book: CopyPoolSize(poolBuffer)
+        if n <= 0:
+            return 0
+        _launch(
+            self,
+            "EmitParticles",
+            n,
+            self.particles.read.data,
+            self.particle_pool.counter.data,
+            self.particle_pool.items.data,
+            self.faults.data,
+            cltypes.make_float2(*point),
+            np.int32(n),
+            self.clock(time),
+        )
+        return n
+
+    def update_particles(self, dt: float) -> None:
+        """UpdateParticles (search=grid: UpdateParticles_grid) on Read -> Write, then swap."""
+        p = self.params
+        args = [
+            self.particles.read.data,
+            self.particles.write.data,
+            np.int32(self.count),
+            np.float32(dt),
+            np.float32(p.grow),
+            np.float32(p.repulsion),
+            np.float32(p.drag),
+            np.float32(p.limit),
+        ]
+        name = "UpdateParticles"
+        if p.search == "grid":
+            grid = self._neighbour_grid()
+            args += [*grid.geometry_args(), *grid.search_args()]
+            name = "UpdateParticles_grid"
+        _launch(self, name, self.count, *args)
+        self.particles.swap()
+
+    def _neighbour_grid(self) -> UniformGrid:
+        """Sort the live cells into a uniform grid (cell = largest contact distance). The grid covers a box of
+        ceil(sqrt(count)) cells a side around the origin plus two cells on the low side; dead slots are parked in
+        cell (0, 0), which no live cell inside the box reaches (one outside is clamped into the border cells: still
+        exact, only slower)."""
+        p = self.params
+        cell = 2.0 * MAX_RADIUS * p.repulsion * GRID_CELL_MARGIN
+        if self.grid is None or self.grid_key != (self.count, cell):
+            side = max(8, math.ceil(math.sqrt(self.count)))
+            origin = -0.5 * side * cell - 2.0 * cell
+            self.grid = UniformGrid(self.runtime, self.count, (origin, origin), cell, (side + 2, side + 2, 1))
+            self.grid_points = self.runtime.empty(self.count, cltypes.float2)
+            self.grid_parking = cltypes.make_float2(origin + 0.5 * cell, origin + 0.5 * cell)
+            self.grid_key = (self.count, cell)
+        _launch(
+            self,
+            "ParticleGridPoints",
+            self.count,
+            self.particles.read.data,
+            np.int32(self.count),
+            self.grid_parking,
+            self.grid_points.data,
+        )
+        self.grid.build(self.grid_points, self.count, stride=2, offset=0)
+        return self.grid
+
+    def get_dividable_particles(self) -> None:
+        """GetDividableParticles: reset the dividable pool, append every live cell with radius >= 0.95 threshold."""
+        self.dividable.set_count(0)  # book: dividablePoolBuffer.SetCounterValue(0)
+        _launch(
+            self,
+            "GetDividableParticles",
+            self.count,
+            self.particles.read.data,
+            np.int32(self.count),
+            self.dividable.counter.data,
+            self.dividable.items.data,
+        )
+
+    def divide_particles(self, max_divide_count: int | None = None) -> int:
+        """DivideParticles: min(dividable, max_divide_count, pool) cells split in two; returns how many."""
+        wanted = self.params.max_divide_count if max_divide_count is None else max_divide_count
+        n = min(self.dividable.count(), wanted)  # book: CopyPoolSize(dividablePoolBuffer)
+        n = min(self.particle_pool.count(), n)  # book: CopyPoolSize(poolBuffer)
+        if n <= 0:
+            return 0
+        _launch(
+            self,
+            "DivideParticles",
+            n,
+            self.particles.read.data,
+            self.particle_pool.counter.data,
+            self.particle_pool.items.data,
+            self.dividable.counter.data,
+            self.dividable.items.data,
+            self.faults.data,
+            np.int32(n),
+            self.clock(),
+        )
+        return n
+
+    def reset_particles(self) -> None:
+        """ResetParticles: every live cell dies and its index goes back to the pool."""
+        _launch(
+            self,
+            "ResetParticles",
+            self.count,
+            self.particles.read.data,
+            np.int32(self.count),
+            self.particle_pool.counter.data,
+            self.particle_pool.items.data,
+        )
+
+    # }}}
+
+    def divide(self) -> int:
+        """The book's Divide(): collect the dividable cells, split up to max_divide_count; returns the splits."""
+        self.get_dividable_particles()
+        made = self.divide_particles()
+        self.divides += 1
+        return made
+
+    def emit_at(self, point: tuple[float, float] | None) -> None:
+        """Emit emit_count cells around ``point`` on every step until ``emit_at(None)`` (the held mouse button)."""
+        self.emit_point = None if point is None else (float(point[0]), float(point[1]))
+
+    def _emitting(self) -> tuple[float, float] | None:
+        if self.emit_point is not None:
+            return self.emit_point
+        return (0.0, 0.0) if self.steps < self.params.emit_frames else None
+
+    def _divide_if_due(self) -> None:
+        """IDivider: one Divide after the step in which the clock reached the next tick (at most one per step)."""
+        if self.time + 1e-9 >= self.next_divide:
+            self.divide()
+            self.next_divide = max(self.next_divide + self.params.divide_interval, self.time)
+
+    def step(self, dt: float | None = None) -> None:
+        dt = check_dt(dt, self.default_dt)
+        point = self._emitting()
+        if point is not None:
+            self.emit_particles(point, time=self.time + dt)
+        self.update_particles(dt)
+        self._advance(dt)
+        self._divide_if_due()
+
+    # {{{ state
+
+    def particle_records(self) -> np.ndarray:
+        """The Particle records (count,) of PARTICLE_DTYPE: the newest state (Read)."""
+        return self.particles.read.get()
+
+    def edge_records(self) -> np.ndarray:
+        """The Edge records (count,) of EDGE_DTYPE (empty in the particle-only scene)."""
+        return self.edges.get() if self.has_edges else np.zeros(0, EDGE_DTYPE)
+
+    def fault_count(self) -> int:
+        """Consumes that found a pool empty since reset (0 whenever the host's limits hold)."""
+        return int(self.faults.get()[0])
+
+    def load(self, particles: np.ndarray, edges: np.ndarray | None = None) -> None:
+        """Replace the state by hand (tests, benchmarks): full slot arrays; pools get every dead index, ascending."""
+        particles = np.asarray(particles, PARTICLE_DTYPE)
+        if particles.shape != (self.count,):
+            raise ValueError(f"particles must have shape ({self.count},), got {particles.shape}")
+        self.particles.read.set(particles)
+        self.particles.write.set(particles)
+        self.particle_pool.fill(np.flatnonzero(particles["alive"] == 0))
+        if self.has_edges:
+            edges = np.zeros(self.count, EDGE_DTYPE) if edges is None else np.asarray(edges, EDGE_DTYPE)
+            if edges.shape != (self.count,):
+                raise ValueError(f"edges must have shape ({self.count},), got {edges.shape}")
+            self.edges.set(edges)
+            self.edge_pool.fill(np.flatnonzero(edges["alive"] == 0))
+
+    def state(self) -> dict[str, np.ndarray]:
+        parts = self.particle_records()
+        edges = self.edge_records()
+        live = edges[edges["alive"] != 0]
+        alive = parts["alive"] != 0
+        return {
+            "position": np.ascontiguousarray(parts["position"]),
+            "velocity": np.ascontiguousarray(parts["velocity"]),
+            "radius": np.ascontiguousarray(parts["radius"]),
+            "threshold": np.ascontiguousarray(parts["threshold"]),
+            "links": np.ascontiguousarray(parts["links"]),
+            "alive": alive,
+            "edges": np.ascontiguousarray(np.column_stack([live["a"], live["b"]]).astype(np.int32).reshape(-1, 2)),
+            "edge_force": np.ascontiguousarray(live["force"].reshape(-1, 2)),
+            "particle_pool_count": np.int32(self.particle_pool.count()),
+            "edge_pool_count": np.int32(self.edge_pool.count() if self.has_edges else 0),
+            "pool_indices": self.particle_pool.read().astype(np.int32),
+            "edge_pool_indices": (self.edge_pool.read() if self.has_edges else np.zeros(0)).astype(np.int32),
+            "alive_count": np.int32(alive.sum()),
+            "edge_count": np.int32(len(live)),
+            "time": np.float32(self.time),
+            "divides": np.int32(self.divides),
+            "faults": np.int32(self.fault_count()),
+        }
+
+    def stats(self) -> dict:
+        alive = int((self.particle_records()["alive"] != 0).sum())
+        out = {
+            **super().stats(),
+            "cells": f"{alive} / {self.count}",
+            "particle pool": self.particle_pool.count(),
+        }
+        if self.has_edges:
+            edges = int((self.edge_records()["alive"] != 0).sum())
+            out.update({"edges": edges, "edge pool": self.edge_pool.count(), "pattern": self.params.pattern})
+        out.update({"divides": self.divides, "faults": self.fault_count(), "search": self.params.search})
+        return out
+
+    # }}}
+
+
+class Simulation(ParticleSimulation):
+    """CellularGrowth.cs: cells joined by edges (springs); edges divide in the Closed or Branch pattern."""
+
+    Params = Params
+    live_params = frozenset(Params.names()) - {"count", "book_text"}
+    has_edges = True
+
+    def _start(self) -> None:
+        # book Start(): EmitParticlesKernel(Vector2.zero, 1) before the first Update (_Time 0: radius nrand(0, 0) = 0,
+        # which the first DivideUnconnectedParticles lifts to 0.1)
+        self.emit_particles((0.0, 0.0), INITIAL_EMIT_COUNT, time=0.0)
+
+    # {{{ edge kernels, in the book's order
+
+    def init_edges(self) -> None:
+        """InitEdges: every edge dead, every index appended to the edge pool."""
+        self.edge_pool.set_count(0)
+        _launch(
+            self,
+            "InitEdges",
+            self.count,
+            self.edges.data,
+            np.int32(self.count),
+            self.edge_pool.counter.data,
+            self.edge_pool.items.data,
+        )
+
+    def update_edges(self) -> None:
+        """UpdateEdges: each live edge's spring force."""
+        _launch(
+            self,
+            "UpdateEdges",
+            self.count,
+            self.particles.read.data,
+            self.edges.data,
+            np.int32(self.count),
+            np.float32(self.params.spring),
+        )
+
+    def spring_edges(self) -> None:
+        """SpringEdges: every live cell adds -+force / links of its edges to its velocity (in place on Read)."""
+        _launch(self, "SpringEdges", self.count, self.particles.read.data, self.edges.data, np.int32(self.count))
+
+    def get_dividable_edges(self) -> None:
+        """GetDividableEdges: reset the dividable pool, append every live edge whose two cells may divide."""
+        self.dividable.set_count(0)  # book: dividablePoolBuffer.SetCounterValue(0)
+        _launch(
+            self,
+            "GetDividableEdges",
+            self.count,
+            self.particles.read.data,
+            self.edges.data,
+            np.int32(self.count),
+            self.dividable.counter.data,
+            self.dividable.items.data,
+            np.int32(self.params.max_link),
+        )
+
+    def divide_unconnected_particles(self) -> None:
+        """DivideUnconnectedParticles over every slot: each live cell without links splits and links to its child.
+        variant=fixed: at most min(particle pool, edge pool) of them, parents read from a snapshot."""
+        q = self.runtime.queue
+        if self.params.variant == "fixed":
+            limit = min(self.particle_pool.count(), self.edge_pool.count())
+            cl.enqueue_copy(q, self.snapshot.data, self.particles.read.data)
+            parents = self.snapshot
+        else:
+            limit, parents = np.iinfo(np.int32).max, self.particles.read  # book: no limit, in place
+        self.tickets.fill(0)
+        pools = (
+            self.particle_pool.counter.data,
+            self.particle_pool.items.data,
+            self.edges.data,
+            self.edge_pool.counter.data,
+            self.edge_pool.items.data,
+        )
+        _launch(
+            self,
+            "DivideUnconnectedParticles",
+            self.count,
+            parents.data,
+            self.particles.read.data,
+            np.int32(self.count),
+            *pools,
+            self.tickets.data,
+            np.int32(limit),
+            self.faults.data,
+            self.clock(),
+        )
+
+    def _divide_edges(self, name: str, dividable_edges: int, max_divide_count: int | None = None) -> int:
+        """The book's DivideEdgesKernel: min(dividable, max, particle pool, edge pool) work-items of ``name``."""
+        p = self.params
+        n = min(dividable_edges, p.max_divide_count if max_divide_count is None else max_divide_count)
+        n = min(self.particle_pool.count(), n)  # book: particlePool.CopyPoolSize()
+        edge_slots = self.edge_pool.count()  # book: edgePool.CopyPoolSize()
+        if name == "DivideEdgesClosed" and p.variant == "fixed":
+            edge_slots //= 2  # ugpcl: a triangle split takes two edge slots
+        n = min(edge_slots, n)
+        if n <= 0:
+            return 0
+        _launch(
+            self,
+            name,
+            n,
+            self.particles.read.data,
+            self.particle_pool.counter.data,
+            self.particle_pool.items.data,
+            self.edges.data,
+            self.edge_pool.counter.data,
+            self.edge_pool.items.data,
+            self.dividable.counter.data,
+            self.dividable.items.data,
+            self.faults.data,
+            np.int32(n),
+            self.clock(),
+        )
+        return n
+
+    def divide_edges_closed(self, dividable_edges: int, max_divide_count: int | None = None) -> int:
+        """DivideEdgesClosed: a child inserted into each dividable edge (or a triangle); returns the splits."""
+        return self._divide_edges("DivideEdgesClosed", dividable_edges, max_divide_count)
+
+    def divide_edges_branch(self, dividable_edges: int, max_divide_count: int | None = None) -> int:
+        """DivideEdgesBranch: a child hung on the less-linked end of each dividable edge; returns the splits."""
+        return self._divide_edges("DivideEdgesBranch", dividable_edges, max_divide_count)
+
+    def reset_edges(self) -> None:
+        """ResetEdges: every live edge dies and its index goes back to the edge pool."""
+        _launch(
+            self,
+            "ResetEdges",
+            self.count,
+            self.edges.data,
+            np.int32(self.count),
+            self.edge_pool.counter.data,
+            self.edge_pool.items.data,
+        )
+
+    # }}}
+
+    def divide(self) -> int:
+        """The book's Divide(): split dividable edges in the pattern, or lone cells when no edge is dividable.
+        Returns the edge splits dispatched (0 after DivideUnconnectedParticles)."""
+        self.get_dividable_edges()
+        dividable_edges = self.dividable.count()  # book: CopyPoolSize(dividablePoolBuffer)
+        self.divides += 1
+        if dividable_edges == 0:
+            self.divide_unconnected_particles()
+            return 0
+        if self.params.pattern == "closed":
+            return self.divide_edges_closed(dividable_edges)
+        return self.divide_edges_branch(dividable_edges)
+
+    def step(self, dt: float | None = None) -> None:
+        dt = check_dt(dt, self.default_dt)
+        point = self._emitting()
+        if point is not None:
+            self.emit_particles(point, time=self.time + dt)
+        for _ in range(self.params.iterations):  # book Update(): UpdateEdges, SpringEdges, UpdateParticles
+            self.update_edges()
+            self.spring_edges()
+            self.update_particles(dt)
+        self._advance(dt)
+        self._divide_if_due()
+
+
+# {{{ benchmark
+
+
+def colony(count: int, spacing: float = 1.0, radius: float = 0.5, seed: int = 0) -> np.ndarray:
+    """``count`` live cells on a jittered hexagonal lattice (a grown colony: each touches about six others)."""
+    rng = np.random.default_rng(seed)
+    side = math.ceil(math.sqrt(count / 0.866)) + 1
+    i, j = np.meshgrid(np.arange(side), np.arange(side), indexing="ij")
+    points = np.column_stack([(i + 0.5 * (j % 2)).ravel() * spacing, j.ravel() * spacing * 0.866])
+    points = points[np.argsort(np.linalg.norm(points - points.mean(axis=0), axis=1), kind="stable")][:count]
+    records = np.zeros(count, PARTICLE_DTYPE)
+    records["position"] = points - points.mean(axis=0) + rng.uniform(-0.05, 0.05, (count, 2)) * spacing
+    records["radius"] = radius
+    records["threshold"] = 1.0
+    records["alive"] = 1
+    return records
+
+
+def bench(runtime, sizes=None) -> list[dict]:
+    """Particle-steps/s (capacity x UpdateParticles passes per second) of the particle-only step with every slot alive
+    (a hexagonal colony), for the book's all-pairs UpdateParticles and the uniform-grid variant, and ms per Divide
+    (GetDividableParticles and its counter reads; the pool is empty, so nothing splits)."""
+    sizes = sizes or ([4096, 16384, 65536, 262144] if runtime.is_gpu else [1024, 4096])
+    rows = []
+    for count in sizes:
+        cells = colony(count)
+        base = None
+        for search in ("all_pairs", "grid"):
+            params = ParticleParams(count=count, search=search, emit_frames=0, divide_interval=3.0)
+            sim = ParticleSimulation(runtime, params, seed=0)
+            sim.load(cells)
+            seconds = seconds_per_step(sim, min_seconds=0.5, max_steps=20)
+            base = base or seconds
+            divide = seconds_per_call(sim.divide, runtime.queue, min_seconds=0.2, max_calls=20)
+            rows.append(
+                {
+                    "capacity": count,
+                    "search": search,
+                    "ms/step": seconds * 1e3,
+                    "particle-steps/s": count / seconds,
+                    "speed-up": base / seconds,
+                    "ms/Divide": divide * 1e3,
+                }
+            )
+    return rows
+
+
+# }}}
+
+
+SCENES = [
+    Scene(
+        "cellular_growth",
+        Simulation,
+        "Cellular growth: dividing cells joined by springs grow a closed ring or a branching tree (vol.3 ch.4)",
+        view="View",
+        preview={"steps": 900, "count": 1024},
+    ),
+    Scene(
+        "cellular_growth_particles",
+        ParticleSimulation,
+        "Cellular growth, cells only: emitted cells grow, repel and divide (vol.3 ch.4)",
+        view="ParticleView",
+        preview={"steps": 600, "count": 2048},
+    ),
+    Scene(
+        "cellular_growth_sphere",
+        Simulation,
+        "Cellular growth drawn as lit spheres (CellularGrowthSphere, vol.3 ch.4)",
+        defaults=SPHERE_DEFAULTS,
+        view="SphereView",
+        preview={"steps": 600, "count": 1024},
+    ),
+]

@@ -1,0 +1,328 @@
+"""GPU cloth: a mass-spring grid hanging from its top row, pushed by a moving sphere (vol.4 ch.3; spec 14).
+
+One step is one frame of the book's ``GPUClothSimulation.Update``: the collider's centre is set from the frame
+time (``ColliderTranslate``: z = TranslateCenterZ + cos(0.125 t) * TranslateLengthZ), then ``CSSimulation`` runs
+``substeps`` times with dt = timestep / substeps, the position and previous-position buffers swapped (ping-pong)
+after each launch. ``reset()`` runs ``CSInit`` and copies both pairs, as the book's ``ResetBuffer`` Blits.
+``step(dt)``'s dt is the frame's duration (1/fps): it drives the sphere only; the cloth always advances
+``timestep`` per frame, as the book's fixed TimeStep.
+
+Differences from the book: sizes need not be multiples of the work-group edge; the pinned row copies itself to
+the write buffers; ``variant=fixed`` (default) guards the book's two ``normalize(0)`` cases (coincident particles;
+a crumpled ring whose consecutive directions are all >= 90 degrees apart keeps its previous normal), ``variant=book``
+keeps them (NaN). ``physical_gravity`` (off by default) makes gravity an acceleration instead of the book's force.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pyopencl as cl
+import pyopencl.cltypes as cltypes
+
+from ..benchmark import seconds_per_step
+from ..buffers import PingPong
+from ..geometry.mesh_io import write_mesh
+from ..runtime import round_up
+from ..scene import Params as BaseParams
+from ..scene import Scene, check_dt, param
+from ..scene import Simulation as BaseSimulation
+
+TRANSLATE_SPEED = 0.125
+"""Angular speed of the collider's back-and-forth motion, rad/s (book: ColliderTranslate, cos(Time.time * 0.125))."""
+COLLIDER_MARGIN = 0.01
+"""The collision radius exceeds the drawn sphere's by this, world units (book: localScale.x * 0.5f + 0.01f)."""
+DIVERGED = "yes: positions are NaN/inf; lower timestep or stiffness, or raise substeps (dt*sqrt(12k/m) < 2)"
+"""What stats() and the view say once the explicit integration has blown up."""
+MAX_PARTICLES = 1 << 22
+"""Cap on W*H (4M particles: 320 MB of float4 buffers)."""
+
+
+@dataclass(frozen=True)
+class Params(BaseParams):
+    timestep: float = param(0.01, 0.0, 0.1, lo_open=True)
+    """Simulated seconds per frame, split into `substeps` Verlet steps (book: TimeStep)."""
+    substeps: int = param(4, 1, 16)
+    """CSSimulation launches per frame (book: VerletIterationNum, inspector range 1-16)."""
+    res: tuple[int, int] = param((128, 128), 2, 4096)
+    """Particles (W, H) (book: ClothResolution); the top row y = H-1 is pinned."""
+    rest_length: float = param(0.02, 0.0, lo_open=True)
+    """Structural spring rest length = grid spacing, metres (book: RestLength); cloth size = res * rest_length."""
+    stiffness: float = param(10000.0, 0.0)
+    """Spring constant k (book: Stiffness); explicit Verlet needs dt * sqrt(12 k / mass) < 2."""
+    damp: float = param(0.996, 0.0)
+    """Velocity damping b, applied once per neighbour: force -= b * v (book: Damp)."""
+    mass: float = param(1.0, 0.0, lo_open=True)
+    """Mass of every particle, kg; the kernel gets 1/mass (book: Mass)."""
+    gravity: tuple[float, float, float] = param((0.0, -9.81, 0.0))
+    """Added to each particle's force, then divided by the mass (book: Gravity)."""
+    physical_gravity: bool = param(False)
+    """Treat gravity as an acceleration (force = mass * gravity) instead of the book's force (spec pitfall 6)."""
+    sphere: bool = param(True)
+    """Collide with the sphere (book: _EnableCollideSphere, true when CollisionSphereTransform is set)."""
+    sphere_scale: float = param(2.0, 0.0, lo_open=True)
+    """Diameter of the drawn sphere (its localScale.x); collision radius = scale / 2 + 0.01."""
+    translate_center_z: float = param(0.0)
+    """Centre of the sphere's motion along z, metres (book: ColliderTranslate.TranslateCenterZ)."""
+    translate_length_z: float = param(4.0)
+    """Amplitude of the sphere's motion along z, metres (book: ColliderTranslate.TranslateLengthZ)."""
+    sphere_motion: bool = param(True)
+    """Move the sphere with the frame time; off freezes it where it is."""
+    num_threads_xy: int = param(16, choices=(1, 2, 4, 8, 16, 32))
+    """Work-group edge (book: NUM_THREADS_XY = 32); halved until the device runs it."""
+    variant: str = param("fixed", choices=("book", "fixed"))
+    """fixed: guard normalize(0) in springs and normals; book: leave it (NaN for coincident particles)."""
+
+    def check(self) -> None:
+        w, h = self.res
+        if w * h > MAX_PARTICLES:
+            raise ValueError(f"res must have W*H <= {MAX_PARTICLES}, got {self.res} ({w * h} particles)")
+
+    @property
+    def substep_dt(self) -> float:
+        """dt of one CSSimulation launch (book: TimeStep / VerletIterationNum)."""
+        return self.timestep / self.substeps
+
+    @property
+    def stability(self) -> float:
+        """dt * sqrt(12 k / m): explicit Verlet on the 12 springs diverges roughly where this passes 2 (spec 9)."""
+        return self.substep_dt * math.sqrt(12.0 * self.stiffness / self.mass)
+
+    @property
+    def collide_radius(self) -> float:
+        """Radius the particles are pushed out to (book: localScale.x * 0.5 + 0.01)."""
+        return self.sphere_scale * 0.5 + COLLIDER_MARGIN
+
+    @property
+    def total_len(self) -> tuple[float, float]:
+        """Cloth size (W, H) * rest_length, metres (book: _TotalClothLength)."""
+        return (self.res[0] * self.rest_length, self.res[1] * self.rest_length)
+
+
+MAIN_SCENE = {"timestep": 0.02, "res": (64, 64), "rest_length": 0.05, "translate_length_z": 3.0}
+"""The sample scene GPUClothSimulation (spec section 5): a 3.2 m cloth, the sphere sweeping 3 m either side."""
+DEBUG_SCENE = {"timestep": 0.01, "res": (64, 64), "rest_length": 0.05, "translate_length_z": 4.0}
+"""The sample scene Debug/GPUClothSimulationDebugRender (spec section 5)."""
+
+
+class Simulation(BaseSimulation):
+    """W x H particles: CSInit on reset, then `substeps` CSSimulation launches per frame."""
+
+    Params = Params
+    history = ("pos", "normal", "sphere", "frame")
+    live_params = frozenset(Params.names()) - {"res", "num_threads_xy", "variant"}
+
+    def reset(self) -> None:
+        p, rt = self.params, self.runtime
+        self.width, self.height = p.res
+        fix_nan = p.variant == "fixed"
+        # largest edge <= num_threads_xy whose square the device runs CSSimulation with (spec pitfall 9)
+        self.block, self.program = rt.fitted_program(
+            "cloth", ("CSSimulation",), p.num_threads_xy, define="NUM_THREADS_XY", dims=2, FIX_NAN=fix_nan
+        )
+        shape = (self.height, self.width, 4)
+        self.pos = PingPong.zeros(rt, shape, np.float32)  # book: _posBuff[0] (.read), _posBuff[1] (.write)
+        self.prev = PingPong.zeros(rt, shape, np.float32)  # book: _posPrevBuff
+        self.normal = rt.zeros(shape, np.float32)  # book: _normBuff
+        self.time, self.steps = 0.0, 0
+        self.sphere_time = 0.0  # the collider's clock: stops while sphere_motion is off
+        self.sphere_params = self.collider(self.sphere_time)
+        self.cs_init()
+
+    def _global_size(self) -> tuple[int, int]:
+        return (round_up(self.width, self.block), round_up(self.height, self.block))
+
+    def collider(self, t: float) -> np.ndarray:
+        """(x, y, z, radius) of the collision sphere at collider time t (book: ColliderTranslate)."""
+        p = self.params
+        z = p.translate_center_z + math.cos(TRANSLATE_SPEED * t) * p.translate_length_z
+        return np.array([0.0, 0.0, z, p.collide_radius], np.float32)
+
+    # {{{ kernels, in the book's order
+
+    def cs_init(self) -> None:
+        """CSInit into pos.read, prev.read and normal, then copy both pairs (book: ResetBuffer's Graphics.Blit)."""
+        p, rt = self.params, self.runtime
+        self.program.kernel("CSInit")(
+            rt.queue,
+            self._global_size(),
+            (self.block, self.block),
+            self.pos.read.data,
+            self.prev.read.data,
+            self.normal.data,
+            cltypes.make_int2(self.width, self.height),
+            cltypes.make_float2(*p.total_len),
+            np.float32(p.rest_length),
+        )
+        cl.enqueue_copy(rt.queue, self.pos.write.data, self.pos.read.data)
+        cl.enqueue_copy(rt.queue, self.prev.write.data, self.prev.read.data)
+
+    def cs_simulation(self) -> None:
+        """One CSSimulation launch (a substep of timestep / substeps) against the current collider, then swap both
+        ping-pong pairs."""
+        p, rt = self.params, self.runtime
+        gravity = np.asarray(p.gravity) * (p.mass if p.physical_gravity else 1.0)
+        self.program.kernel("CSSimulation")(
+            rt.queue,
+            self._global_size(),
+            (self.block, self.block),
+            self.pos.read.data,
+            self.prev.read.data,
+            self.pos.write.data,
+            self.prev.write.data,
+            self.normal.data,
+            cltypes.make_int2(self.width, self.height),
+            np.float32(p.rest_length),
+            cltypes.make_float4(*gravity, 0.0),
+            np.float32(p.stiffness),
+            np.float32(p.damp),
+            np.float32(1.0 / p.mass),
+            np.float32(p.substep_dt),
+            np.int32(p.sphere),
+            cltypes.make_float4(*self.sphere_params),
+        )
+        # swap buffers: the positions just written are read by the next substep
+        self.pos.swap()
+        self.prev.swap()
+
+    # }}}
+
+    def step(self, dt: float | None = None) -> None:
+        """One frame: place the collider at the frame's time, then `substeps` CSSimulation launches."""
+        dt = check_dt(dt, self.default_dt)
+        self.sphere_params = self.collider(self.sphere_time)
+        for _ in range(self.params.substeps):
+            self.cs_simulation()
+        if self.params.sphere_motion:
+            self.sphere_time += dt
+        self._advance(dt)
+
+    # {{{ state
+
+    def read(self, name: str) -> np.ndarray:
+        """(H, W, 4) float32 of one buffer: pos, prev (the current read halves), normal, pos_write, prev_write."""
+        buffers = {
+            "pos": self.pos.read,
+            "prev": self.prev.read,
+            "normal": self.normal,
+            "pos_write": self.pos.write,
+            "prev_write": self.prev.write,
+        }
+        return buffers[name].get()
+
+    def set_positions(self, pos, prev=None) -> None:
+        """Place particles by hand (tests, experiments): (H, W, 3) positions and previous positions (default pos);
+        both halves of each pair get the values."""
+        pos = np.asarray(pos, np.float32).reshape(self.height, self.width, 3)
+        prev = pos if prev is None else np.asarray(prev, np.float32).reshape(pos.shape)
+        for pair, values in ((self.pos, pos), (self.prev, prev)):
+            data = np.concatenate([values, np.ones((*values.shape[:2], 1), np.float32)], axis=-1)
+            pair.read.set(data)
+            pair.write.set(data)
+
+    def state(self) -> dict[str, np.ndarray]:
+        return {
+            "pos": np.ascontiguousarray(self.read("pos")[..., :3]),
+            "normal": np.ascontiguousarray(self.read("normal")[..., :3]),
+            "prev_last": np.ascontiguousarray(self.read("prev")[..., :3]),
+            "sphere": self.sphere_params.copy(),
+            "frame": np.int32(self.steps),
+        }
+
+    def stats(self) -> dict:
+        pos, prev = self.read("pos")[..., :3], self.read("prev")[..., :3]
+        structural = np.concatenate(
+            [
+                np.linalg.norm(np.diff(pos, axis=0), axis=-1).ravel(),
+                np.linalg.norm(np.diff(pos, axis=1), axis=-1).ravel(),
+            ]
+        )
+        speed = np.linalg.norm(pos - prev, axis=-1) / self.params.substep_dt
+        return {
+            **super().stats(),
+            "particles": f"{self.width} x {self.height}",
+            "work-group": f"{self.block} x {self.block}",
+            "substep dt": self.params.substep_dt,
+            "sphere": tuple(round(float(v), 4) for v in self.sphere_params),
+            "max speed": float(speed.max()),
+            "bottom row mean y": float(pos[0, :, 1].mean()),
+            "structural length min/max": (float(structural.min()), float(structural.max())),
+            "dt*sqrt(12k/m)": self.params.stability,
+            "diverged": DIVERGED if not np.isfinite(pos).all() else False,
+        }
+
+    def export_mesh(self, path) -> None:
+        """The cloth surface (W*H vertices, 2 triangles per cell, the simulated normals) as .obj or .ply."""
+        state = self.state()
+        write_mesh(path, state["pos"].reshape(-1, 3), grid_triangles(self.width, self.height), state["normal"])
+
+    # }}}
+
+
+def grid_triangles(width: int, height: int) -> np.ndarray:
+    """(2 (W-1)(H-1), 3) int32 vertex indices of the cloth mesh, vertex y * W + x: two triangles per cell."""
+    y, x = np.mgrid[0 : height - 1, 0 : width - 1]
+    a = (y * width + x).ravel()
+    b, c, d = a + 1, a + width + 1, a + width  # (x+1, y), (x+1, y+1), (x, y+1)
+    return np.stack([np.stack([a, b, c], 1), np.stack([a, c, d], 1)], 1).reshape(-1, 3).astype(np.int32)
+
+
+def spring_pairs(width: int, height: int) -> dict[str, np.ndarray]:
+    """The three spring families as (n, 2) int32 vertex-index pairs, each spring once (debug view): structural
+    (x, y)-(x+1, y) and (x, y)-(x, y+1), shear (both diagonals of each cell), bend (x, y)-(x+-2, y+2)."""
+    index = np.arange(width * height).reshape(height, width)
+
+    def pairs(dx: int, dy: int) -> np.ndarray:
+        x0, x1 = max(0, -dx), width - max(0, dx)
+        a = index[0 : height - dy, x0:x1]
+        b = index[dy:height, x0 + dx : x1 + dx]
+        return np.stack([a.ravel(), b.ravel()], 1)
+
+    return {
+        "structural": np.concatenate([pairs(1, 0), pairs(0, 1)]).astype(np.int32),
+        "shear": np.concatenate([pairs(1, 1), pairs(-1, 1)]).astype(np.int32),
+        "bend": np.concatenate([pairs(2, 2), pairs(-2, 2)]).astype(np.int32),
+    }
+
+
+def bench(runtime, sizes=None) -> list[dict]:
+    """ms per frame (main scene: 4 substeps, sphere on) and particle-updates/s (particles x substeps per second)
+    for W = H = each size."""
+    sizes = sizes or ([64, 128, 256, 512] if runtime.is_gpu else [64, 128, 256])
+    rows = []
+    for n in sizes:
+        sim = Simulation(runtime, Params(**{**MAIN_SCENE, "res": (n, n)}), seed=0)
+        seconds = seconds_per_step(sim, max_steps=100)
+        updates = n * n * sim.params.substeps
+        rows.append(
+            {
+                "res": f"{n}x{n}",
+                "particles": n * n,
+                "substeps": sim.params.substeps,
+                "ms/frame": seconds * 1e3,
+                "particle-updates/s": updates / seconds,
+                "frames/s": 1.0 / seconds,
+            }
+        )
+    return rows
+
+
+SCENES = [
+    Scene(
+        "cloth",
+        Simulation,
+        "GPU cloth: a mass-spring sheet draped over a moving sphere (vol.4 ch.3)",
+        defaults=MAIN_SCENE,
+        preview={"steps": 1000},
+    ),
+    Scene(
+        "cloth_debug",
+        Simulation,
+        "GPU cloth, debug render: mass points and the three spring families as lines (vol.4 ch.3)",
+        defaults=DEBUG_SCENE,
+        view="DebugView",
+        preview={"steps": 1000},
+    ),
+]

@@ -1,0 +1,370 @@
+"""Tessellation + displacement driven by a 2D fluid: Unity's Plane, subdivided on the GPU by edge length and raised
+by the fluid's density (vol.4 ch.6 "Tessellation & Displacement"; spec 17).
+
+The fluid is a ``stable_fluids_2d`` Simulation this scene owns and drives (vol.4's Solver2D.compute is a stripped
+copy of vol.1's): per frame the scripted stroke (or the mouse) holds the brush, the fluid steps, and its density
+becomes the displacement texture of the plane. The tessellation itself is GLSL in ``viewer/shaders/tessellation.*``
+(TCS: edge-length factors with frustum culling, as Unity's UnityEdgeLengthBasedTessCull; TES: barycentric
+interpolation and displacement along the normal). Headless, this module evaluates the same formulas with numpy:
+``tess_factors`` (the TCS for the scene camera) and ``displace_plane_grid`` (a uniform grid displaced as the TES
+displaces its vertices).
+
+variant=book reproduces the sample: vol.4's stripped solver (no pressure sweeps, no AdvectVelocity; the original's
+divergence and back-trace), Point-filtered displacement, lighting with the plane's undisplaced normal (Unity's
+surface shader never updates normals after `disp`). variant=fixed (default): vol.1's full solver with Stam's
+equations, bilinear displacement, normals of the displaced surface. Both cast the light's shadows through the same
+tessellation (the sample's addshadow). Differences from the book in both: Jacobi ping-pong instead of racy in-place
+Gauss-Seidel; the plane's normal map (normal.tga, not in the repository) is flat, Unity's "bump" default.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..geometry.mesh_io import write_mesh
+from ..geometry.transforms import euler_matrix, perspective
+from ..scene import Params as BaseParams
+from ..scene import Scene, check_dt, param
+from ..scene import Simulation as BaseSimulation
+from .stable_fluids_2d import STROKES
+from .stable_fluids_2d import Params as FluidParams
+from .stable_fluids_2d import Simulation as FluidSimulation
+
+# {{{ the scene: Unity's built-in Plane, its transform, the camera and the light of FuidTessellation (sic)
+
+PLANE_QUADS = 10
+"""Unity's Plane: 10 x 10 quads of 1 unit on x, z in [-5, 5] (11 x 11 vertices, 200 triangles)."""
+PLANE_POSITION = (0.0, 1.23, -2.18)
+PLANE_EULER = (48.0, 180.0, 0.0)
+"""Plane transform in the scene (degrees, Unity's order: z, then x, then y); world normal (0, 0.669, -0.743)."""
+CAMERA_POSITION = (0.0, 0.0, -10.0)
+"""Scene camera: at (0, 0, -10) looking along +z, vertical FOV 60, clip planes 0.3 and 1000 (Unity's defaults)."""
+CAMERA_FOV, CAMERA_NEAR, CAMERA_FAR = 60.0, 0.3, 1000.0
+LIGHT_EULER = (80.0, 0.0, 0.0)
+"""Directional light rotation; it shines along (0, -0.985, 0.174) with white colour x intensity LIGHT_INTENSITY."""
+LIGHT_INTENSITY = 3.2
+MAX_TESS_LEVEL = 64.0
+"""GL_MAX_TESS_GEN_LEVEL's guaranteed minimum (D3D11: 64); fractional_odd spacing uses up to 63 segments."""
+
+
+def plane_model() -> np.ndarray:
+    """Object-to-world matrix of the plane (scale 1)."""
+    model = np.identity(4)
+    model[:3, :3] = euler_matrix(*PLANE_EULER)[:3, :3]
+    model[:3, 3] = PLANE_POSITION
+    return model
+
+
+def light_direction() -> np.ndarray:
+    """Direction the light travels (its forward axis), world space."""
+    return euler_matrix(*LIGHT_EULER)[:3, :3] @ np.array([0.0, 0.0, 1.0])
+
+
+def plane_mesh() -> tuple[np.ndarray, np.ndarray]:
+    """Unity's Plane: vertices (121, 12) float32 = position xyz, normal xyz, tangent xyzw, uv; triangles (200, 3).
+
+    uv = ((5 - x)/10, (5 - z)/10): Unity's plane maps its texture opposite to x and z (a texture on an unrotated
+    Plane reads upside down), which is why the scene turns it 180 degrees about y; the painting then reads upright
+    and lands near the cursor. The tangent follows +u; the normal is +y."""
+    n = PLANE_QUADS + 1
+    z, x = np.meshgrid(np.linspace(5.0, -5.0, n), np.linspace(5.0, -5.0, n), indexing="ij")  # row j: v = j/10
+    vertices = np.zeros((n * n, 12), np.float32)
+    vertices[:, 0], vertices[:, 2] = x.ravel(), z.ravel()
+    vertices[:, 4] = 1.0  # normal +y
+    vertices[:, 6], vertices[:, 9] = -1.0, -1.0  # tangent = d(position)/du = -x; w = -1: binormal = +v = -z
+    vertices[:, 10], vertices[:, 11] = (5.0 - x.ravel()) / 10.0, (5.0 - z.ravel()) / 10.0
+    triangles = []
+    for j in range(PLANE_QUADS):
+        for i in range(PLANE_QUADS):
+            a, b, c, d = j * n + i, j * n + i + 1, (j + 1) * n + i, (j + 1) * n + i + 1
+            triangles += [(a, c, b), (b, c, d)]
+    return vertices, np.asarray(triangles, np.int32)
+
+
+def scene_camera(aspect: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(view, projection, eye) of the scene camera: Unity's left-handed world kept, z mirrored into GL's eye space
+    (eye space = (x - cx, y - cy, -(z - cz)) since the camera looks along +z)."""
+    view = np.diag([1.0, 1.0, -1.0, 1.0])
+    view[:3, 3] = -view[:3, :3] @ np.asarray(CAMERA_POSITION)
+    return view, perspective(CAMERA_FOV, aspect, CAMERA_NEAR, CAMERA_FAR), np.asarray(CAMERA_POSITION, float)
+
+
+# }}}
+
+# {{{ the tessellation formulas in numpy (what the TCS and TES compute)
+
+
+def frustum_side_planes(view_proj: np.ndarray) -> np.ndarray:
+    """Left, right, bottom, top planes (a, b, c, d) of a view-projection matrix, inward, |(a, b, c)| = 1 (Unity's
+    unity_CameraWorldClipPlanes[0..3]); a point is inside where a*x + b*y + c*z + d >= 0."""
+    m = np.asarray(view_proj, float)
+    planes = np.array([m[3] + m[0], m[3] - m[0], m[3] + m[1], m[3] - m[1]])
+    return planes / np.linalg.norm(planes[:, :3], axis=1, keepdims=True)
+
+
+def edge_factor(a: np.ndarray, b: np.ndarray, eye, screen_height: float, edge_length: float) -> np.ndarray:
+    """UnityCalcEdgeTessFactor: max(|a - b| * screen height / (edge length * distance of the midpoint), 1)."""
+    length = np.linalg.norm(a - b, axis=-1)
+    distance = np.linalg.norm(0.5 * (a + b) - np.asarray(eye), axis=-1)
+    return np.maximum(length * screen_height / (edge_length * distance), 1.0)
+
+
+def tess_factors(corners: np.ndarray, eye, view_proj, screen_height: float, edge_length: float, displacement: float):
+    """UnityEdgeLengthBasedTessCull per triangle: corners (T, 3, 3) world space -> (T, 4) = outer[0..2] (edge
+    opposite each corner), inner; all 0 when the triangle lies farther than 1.5 * displacement outside one side
+    plane of the frustum."""
+    p0, p1, p2 = corners[:, 0], corners[:, 1], corners[:, 2]
+    out = np.zeros((len(corners), 4))
+    out[:, 0] = edge_factor(p1, p2, eye, screen_height, edge_length)
+    out[:, 1] = edge_factor(p2, p0, eye, screen_height, edge_length)
+    out[:, 2] = edge_factor(p0, p1, eye, screen_height, edge_length)
+    out[:, 3] = out[:, :3].mean(axis=1)
+    planes = frustum_side_planes(view_proj)
+    distances = np.einsum("tkc,pc->tkp", corners, planes[:, :3]) + planes[:, 3]  # (T, corner, plane)
+    culled = np.any(np.all(distances < -1.5 * displacement, axis=1), axis=1)
+    out[culled] = 0.0
+    return out
+
+
+def sample_texture(texture: np.ndarray, uv: np.ndarray, linear: bool) -> np.ndarray:
+    """GL texture lookup with CLAMP_TO_EDGE of an (h, w) array (row 0 = v near 0): LINEAR (bilinear between texel
+    centres at (i + 0.5)/w) or NEAREST (the original's Point filter)."""
+    h, w = texture.shape
+    t = np.asarray(texture, np.float64)
+    x, y = uv[..., 0] * w - 0.5, uv[..., 1] * h - 0.5
+    if not linear:
+        i = np.clip(np.floor(uv[..., 0] * w).astype(int), 0, w - 1)
+        j = np.clip(np.floor(uv[..., 1] * h).astype(int), 0, h - 1)
+        return t[j, i]
+    x0, y0 = np.floor(x).astype(int), np.floor(y).astype(int)
+    fx, fy = x - x0, y - y0
+
+    def tap(i, j):
+        return t[np.clip(j, 0, h - 1), np.clip(i, 0, w - 1)]
+
+    return (1 - fy) * ((1 - fx) * tap(x0, y0) + fx * tap(x0 + 1, y0)) + fy * (
+        (1 - fx) * tap(x0, y0 + 1) + fx * tap(x0 + 1, y0 + 1)
+    )
+
+
+def displace_plane_grid(
+    density: np.ndarray, level: int, displacement: float, negative: bool = False, linear: bool = True
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The plane as a uniform (10*level + 1)^2 grid displaced as the TES displaces its vertices: p = p0 + n * d,
+    d = density(uv) * displacement (subtracted when negative). Returns world-space vertices (V, 3), triangles (T, 3)
+    and the undisplaced world normal (3,)."""
+    n = PLANE_QUADS * level + 1
+    z, x = np.meshgrid(np.linspace(5.0, -5.0, n), np.linspace(5.0, -5.0, n), indexing="ij")
+    uv = np.stack([(5.0 - x) / 10.0, (5.0 - z) / 10.0], axis=-1)
+    d = sample_texture(density, uv, linear) * displacement * (-1.0 if negative else 1.0)
+    local = np.stack([x, d, z], axis=-1).reshape(-1, 3)  # the normal is +y in object space
+    model = plane_model()
+    world = local @ model[:3, :3].T + model[:3, 3]
+    j, i = np.meshgrid(np.arange(n - 1), np.arange(n - 1), indexing="ij")
+    a, b, c, e = j * n + i, j * n + i + 1, (j + 1) * n + i, (j + 1) * n + i + 1
+    triangles = np.concatenate([np.stack([a, c, b], -1).reshape(-1, 3), np.stack([b, c, e], -1).reshape(-1, 3)])
+    return world.astype(np.float32), triangles.astype(np.int32), model[:3, :3] @ np.array([0.0, 1.0, 0.0])
+
+
+def plane_corners() -> np.ndarray:
+    """World-space corners (200, 3, 3) of the plane's triangles (what the TCS's p0, p1, p2 are)."""
+    vertices, triangles = plane_mesh()
+    model = plane_model()
+    world = vertices[:, :3].astype(np.float64) @ model[:3, :3].T + model[:3, 3]
+    return world[triangles]
+
+
+def fractional_odd_triangles(level: float) -> int:
+    """Triangles a triangle patch becomes with every level = ``level`` under fractional_odd spacing: m = the odd
+    integer >= level (1..63) segments per edge -> (3 m^2 - 1) / 2 triangles; level <= 0 discards the patch."""
+    if level <= 0:
+        return 0
+    m = min(63, max(1, math.ceil(level)))
+    m += 1 - m % 2
+    return (3 * m * m - 1) // 2
+
+
+# }}}
+
+
+@dataclass(frozen=True)
+class Params(BaseParams):
+    grid: int = param(256, 8, 4096)
+    """Fluid cells per side, a square grid under the square plane (the original: the window >> lod; spec: 512)."""
+    diff: float = param(10.0, 0.0)
+    """Density diffusion (book: diff; FuidTessellation's Solver)."""
+    visc: float = param(100.0, 0.0)
+    """Velocity diffusion (book: visc)."""
+    velocity_coef: float = param(4.0, 0.0)
+    """Brush velocity gain (book: velocityCoef)."""
+    density_coef: float = param(6.0, 0.0)
+    """Brush density gain (book: densityCoef)."""
+    density_only: bool = False
+    """Skip the velocity step, advect by the brush (book: isDensityOnly)."""
+    gs_iterations: int = param(2, 1, 100000)
+    """Jacobi sweeps per diffusion (and per pressure solve in variant=fixed) (book: GS_ITERATE)."""
+    source_radius: float = param(0.072, 0.0, 1.0, lo_open=True)
+    """Brush radius in uv units (book: sourceRadius and AddSource.mat _Radius in the scene)."""
+    stroke: str = param("circle", choices=STROKES)
+    """Scripted brush path (spec 17 section 7): circle, line, figure8 or none; the mouse overrides it."""
+    stroke_frames: int = param(0, 0)
+    """Frames the scripted stroke holds the brush down; 0 = every frame (spec 17: button held on all frames)."""
+    edge_length: float = param(2.0, 2.0, 50.0)
+    """Target length of a tessellated edge on screen, pixels (book: _EdgeLength; TessellationSurface.mat 2)."""
+    displacement: float = param(0.5, 0.0, 30.0)
+    """World units per unit of density along the normal (book: _Displacement; the material's 0.5)."""
+    negative: bool = False
+    """Displace against the normal (Tessellation.shader's disp subtracts; the surface shader adds)."""
+    specular: float = param(0.366, 0.0, 1.0)
+    """Render only: Blinn-Phong exponent / 128 (book: _Specular)."""
+    gloss: float = param(0.276, 0.0, 1.0)
+    """Render only: specular scale (book: _Gloss)."""
+    color: tuple[float, float, float] = param((0.0, 0.0, 0.0), 0.0, 1.0)
+    """Render only: albedo (book: _Color; the scene's black, so only the specular shows)."""
+    spec_color: tuple[float, float, float] = param((1.0, 1.0, 1.0), 0.0, 1.0)
+    """Render only: specular colour (book: _SpecColor)."""
+    shadows: bool = True
+    """Render only: the light's shadows (the sample: addshadow fullforwardshadows; its light casts shadows)."""
+    lighting: str = param("auto", choices=("auto", "height", "mesh"))
+    """Render only: normals of the displaced height field (height), the plane's own as Unity's surface shader
+    (mesh), or auto = mesh for variant=book, height for fixed."""
+    variant: str = param("fixed", choices=("fixed", "book"))
+    """fixed: vol.1's full solver (Stam), bilinear displacement; book: vol.4's stripped solver, Point sampling."""
+    screen_size: tuple[int, int] = param((1920, 1080), 16, 16384)
+    """Screen the headless tess_factors are evaluated for, pixels (book: _ScreenParams)."""
+    mesh_level: int = param(8, 1, 64)
+    """Headless mesh_vertices: (10*level + 1)^2 vertices over the plane."""
+    local_size: tuple[int, int] = param((32, 32), 1, 1024)
+    """Work-group shape of the fluid kernels (book: THREAD_X, THREAD_Y = 32)."""
+
+    @property
+    def linear_filter(self) -> bool:
+        """The displacement texture's filter: LINEAR (fixed) or the original's Point (book)."""
+        return self.variant == "fixed"
+
+    @property
+    def height_normals(self) -> bool:
+        return self.lighting == "height" or (self.lighting == "auto" and self.variant == "fixed")
+
+
+FLUID_FIELDS = (
+    "diff",
+    "visc",
+    "velocity_coef",
+    "density_coef",
+    "density_only",
+    "gs_iterations",
+    "source_radius",
+    "stroke",
+    "stroke_frames",
+    "variant",
+    "local_size",
+)
+"""Params handed to the fluid unchanged."""
+
+
+class Simulation(BaseSimulation):
+    """The fluid (a stable_fluids_2d Simulation) plus the brush's path; the plane lives in the view."""
+
+    Params = Params
+    history = ("density", "velocity")
+    live_params = frozenset(Params.names()) - {"grid"}
+
+    def reset(self) -> None:
+        self.fluid = FluidSimulation(self.runtime, self.fluid_params(), self.seed)
+        self.stroke_uv: list[tuple[float, float]] = []
+        self.stroke_vel: list[tuple[float, float]] = []
+        self.time, self.steps = 0.0, 0
+
+    def fluid_params(self) -> FluidParams:
+        """The 2D fluid's Params: vol.4's solver for variant=book, vol.1's for fixed, on a grid x grid square."""
+        p = self.params
+        shared = {name: getattr(p, name) for name in FLUID_FIELDS}
+        return FluidParams(width=p.grid, height=p.grid, solver="vol4" if p.variant == "book" else "vol1", **shared)
+
+    def update(self, **changes) -> None:
+        super().update(**changes)  # a new grid resets (a new fluid); everything else is live
+        target = self.fluid_params()
+        self.fluid.update(**{k: v for k, v in target.to_dict().items() if getattr(self.fluid.params, k) != v})
+
+    def brush(self, u: float, v: float, du: float = 0.0, dv: float = 0.0) -> None:
+        """Hold the fluid's brush at uv (u, v) of the plane's texture for the next step (see the fluid's brush)."""
+        self.fluid.brush(u, v, du, dv)
+
+    def restart_stroke(self) -> None:
+        self.fluid.restart_stroke()
+
+    def step(self, dt: float | None = None) -> None:
+        dt = check_dt(dt, self.default_dt)
+        self.fluid.step(dt)
+        brush = self.fluid.last_brush
+        self.stroke_uv.append(brush[:2] if brush else (math.nan, math.nan))
+        self.stroke_vel.append(brush[2:] if brush else (math.nan, math.nan))
+        self._advance(dt)
+
+    # {{{ state
+
+    def density(self) -> np.ndarray:
+        """(grid, grid) float32: the displacement texture (row 0 = v near 0)."""
+        return self.fluid.density.read.get()
+
+    def mesh(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        p = self.params
+        return displace_plane_grid(self.density(), p.mesh_level, p.displacement, p.negative, p.linear_filter)
+
+    def tess_factors(self) -> np.ndarray:
+        """(200, 4) float32: the TCS's outer[0..2], inner for the scene camera on a screen of screen_size."""
+        p = self.params
+        view, proj, eye = scene_camera(p.screen_size[0] / p.screen_size[1])
+        factors = tess_factors(plane_corners(), eye, proj @ view, p.screen_size[1], p.edge_length, p.displacement)
+        return factors.astype(np.float32)
+
+    def state(self) -> dict[str, np.ndarray]:
+        fluid = self.fluid.state()
+        vertices, triangles, _ = self.mesh()
+        return {
+            "density": fluid["density"],
+            "velocity": fluid["velocity"],
+            "stroke_uv": np.asarray(self.stroke_uv, np.float32).reshape(-1, 2),
+            "stroke_vel": np.asarray(self.stroke_vel, np.float32).reshape(-1, 2),
+            "mesh_vertices": vertices,
+            "mesh_triangles": triangles,
+            "tess_factors": self.tess_factors(),
+        }
+
+    def stats(self) -> dict:
+        factors = self.tess_factors()
+        visible = factors[:, 3] > 0
+        edges = factors[visible, :3]
+        density = self.density()
+        return {
+            **super().stats(),
+            "grid": f"{self.params.grid}x{self.params.grid}",
+            "variant": self.params.variant,
+            "fluid solver": self.fluid.params.solver,
+            "max density": float(density.max()),
+            "max displacement": float(density.max() * self.params.displacement),
+            "patches drawn": int(visible.sum()),
+            "edge factors": f"{edges.min():.3g}..{edges.max():.3g}" if len(edges) else "-",
+        }
+
+    def export_mesh(self, path) -> None:
+        """The displaced plane (mesh_level grid) as .obj/.ply."""
+        vertices, triangles, normal = self.mesh()
+        write_mesh(path, vertices, triangles)
+
+    # }}}
+
+
+SCENES = [
+    Scene(
+        "tessellation",
+        Simulation,
+        "Tessellation + displacement: a plane raised by a painted 2D fluid (vol.4 ch.6)",
+        view="View",
+        preview={"steps": 240},
+    )
+]

@@ -1,0 +1,66 @@
+"""Offscreen rendering through EGL (no window, no display): ``ugpcl run --png`` and the view tests."""
+
+from __future__ import annotations
+
+from functools import cache
+
+import moderngl
+import numpy as np
+
+from ugpcl.runtime import all_devices
+
+from .gl import read_pixels, save_png
+from .views import View, create_view
+
+MSAA_SAMPLES = 4
+"""Multisampling of offscreen frames (thin lines and small boids alias badly without it)."""
+
+
+@cache
+def context() -> moderngl.Context:
+    """One standalone EGL context per process (Mesa llvmpipe here, the NVIDIA driver on the GPU machine)."""
+    all_devices()  # OpenCL before GL: PoCL aborts if it loads LLVM after Mesa did (see runtime.all_devices)
+    return moderngl.create_context(standalone=True, backend="egl", require=430)
+
+
+class Frame:
+    """A multisampled colour+depth target of ``size`` and a plain one to resolve it into for reading."""
+
+    def __init__(self, ctx: moderngl.Context, size: tuple[int, int]):
+        self.ctx, self.size = ctx, size
+        samples = min(MSAA_SAMPLES, ctx.max_samples)
+        self.msaa = ctx.framebuffer(
+            color_attachments=[ctx.renderbuffer(size, 4, samples=samples)],
+            depth_attachment=ctx.depth_renderbuffer(size, samples=samples),
+        )
+        self.resolved = ctx.framebuffer(color_attachments=[ctx.renderbuffer(size, 4)])
+
+    def render(self, view: View, camera) -> np.ndarray:
+        self.msaa.use()
+        self.ctx.viewport = (0, 0, *self.size)
+        self.ctx.clear(*view.background, 1.0, depth=1.0)
+        view.draw(camera)
+        self.ctx.copy_framebuffer(self.resolved, self.msaa)
+        return read_pixels(self.resolved)
+
+
+@cache
+def frame(size: tuple[int, int]) -> Frame:
+    """One Frame per size, kept: releasing the bound framebuffer leaves moderngl binding a dead one on the next."""
+    return Frame(context(), size)
+
+
+def render(scene, sim, size: tuple[int, int] = (800, 600), view: View | None = None, camera=None) -> np.ndarray:
+    """The scene's view of ``sim`` as (H, W, 3) uint8, top row first."""
+    ctx = context()
+    view = view or create_view(scene, ctx, sim)
+    camera = camera or view.png_camera()
+    camera.aspect = size[0] / size[1]
+    view.upload()
+    return frame(tuple(size)).render(view, camera)
+
+
+def render_png(scene, sim, path, size: tuple[int, int] = (800, 600)) -> np.ndarray:
+    pixels = render(scene, sim, size)
+    save_png(pixels, path)
+    return pixels

@@ -1,0 +1,131 @@
+"""Boids view (vol.1 ch.3, BoidsRender): one cube mesh drawn instanced per boid, oriented by its velocity."""
+
+from __future__ import annotations
+
+import moderngl
+
+from ..camera import OrbitCamera
+from ..gl import Lines, load_program, set_camera
+from ..meshes import box_edges, cube
+from . import Key
+from . import View as BaseView
+
+MIN_BOIDS, MAX_BOIDS = 256, 262144
+"""Range of the [ and ] keys (halving/doubling N, multiples of 256)."""
+
+
+class View(BaseView):
+    title = "Boids (vol.1 ch.3)"
+    keys = (
+        Key("[", "halve the number of boids", "fewer_boids"),
+        Key("]", "double the number of boids", "more_boids"),
+        Key("+", "separate_weight + 0.5", "more_separation"),
+        Key("-", "separate_weight - 0.5", "less_separation"),
+        Key("1", "separation on/off", "toggle_separation"),
+        Key("2", "alignment on/off", "toggle_alignment"),
+        Key("3", "cohesion on/off", "toggle_cohesion"),
+        Key("tab", "ForceCS variant: tiled / naive / grid", "next_variant"),
+        Key("b", "wall box on/off", "toggle_box"),
+        Key("c", "colour by speed on/off", "toggle_colors"),
+    )
+
+    def __init__(self, ctx: moderngl.Context, sim):
+        super().__init__(ctx, sim)
+        self.program = load_program(ctx, "boids")
+        vertices, indices = cube()
+        self.mesh_vbo = ctx.buffer(vertices.tobytes())
+        self.mesh_ibo = ctx.buffer(indices.tobytes())
+        self.instances = None
+        self.box = Lines(ctx, color=(0.0, 1.0, 1.0, 1.0))
+        self.show_box, self.color_by_speed = True, False
+        self.saved_weights: dict[str, float] = {}
+
+    def make_camera(self):
+        return OrbitCamera(target=(0.0, 0.0, 0.0), distance=10.0)  # book: camera at (0, 0, -10), FOV 60
+
+    def png_camera(self):
+        # the book's camera sits inside the flock; a picture shows more from outside the 32^3 box
+        return OrbitCamera(target=(0.0, 0.0, 0.0), distance=46.0, yaw=-30.0, pitch=16.0)
+
+    def upload(self) -> None:
+        data = self.sim.boids()
+        if self.instances is None or self.instances.size != data.nbytes:
+            if self.instances is not None:
+                self.instances.release()
+            self.instances = self.ctx.buffer(reserve=data.nbytes)
+            self.vao = self.ctx.vertex_array(
+                self.program,
+                [
+                    (self.mesh_vbo, "3f 3f", "in_position", "in_normal"),
+                    (self.instances, "4f 4f/i", "in_velocity", "in_offset"),
+                ],
+                index_buffer=self.mesh_ibo,
+            )
+        self.instances.write(data.tobytes())
+        p = self.sim.params
+        self.box.set(box_edges(p.wall_center, p.wall_size))
+
+    def draw(self, camera) -> None:
+        p = self.sim.params
+        self.ctx.enable(moderngl.DEPTH_TEST)
+        set_camera(self.program, camera)
+        self.program["object_scale"].value = p.object_scale
+        self.program["color_by_speed"].value = self.color_by_speed
+        self.program["max_speed"].value = p.max_speed
+        self.vao.render(moderngl.TRIANGLES, instances=self.sim.n)
+        if self.show_box:
+            self.box.draw(camera)
+
+    def status(self) -> list[str]:
+        p = self.sim.params
+        rules = [
+            name
+            for name, w in (("sep", p.separate_weight), ("ali", p.alignment_weight), ("coh", p.cohesion_weight))
+            if w
+        ]
+        return [
+            f"N = {self.sim.n}  ForceCS: {p.variant}  rules: {' '.join(rules) or 'none'}  sep w = {p.separate_weight:g}"
+        ]
+
+    # {{{ key actions
+
+    def fewer_boids(self) -> None:
+        self.sim.update(max_object_num=max(MIN_BOIDS, (self.sim.n // 2) // 256 * 256))
+
+    def more_boids(self) -> None:
+        self.sim.update(max_object_num=min(MAX_BOIDS, max(MIN_BOIDS, self.sim.n * 2 // 256 * 256)))
+
+    def more_separation(self) -> None:
+        self.sim.update(separate_weight=self.sim.params.separate_weight + 0.5)
+
+    def less_separation(self) -> None:
+        self.sim.update(separate_weight=max(0.0, self.sim.params.separate_weight - 0.5))
+
+    def _toggle_weight(self, name: str) -> None:
+        current = getattr(self.sim.params, name)
+        if current:
+            self.saved_weights[name] = current
+            self.sim.update(**{name: 0.0})
+        else:
+            self.sim.update(**{name: self.saved_weights.get(name, getattr(type(self.sim.params)(), name))})
+
+    def toggle_separation(self) -> None:
+        self._toggle_weight("separate_weight")
+
+    def toggle_alignment(self) -> None:
+        self._toggle_weight("alignment_weight")
+
+    def toggle_cohesion(self) -> None:
+        self._toggle_weight("cohesion_weight")
+
+    def next_variant(self) -> None:
+        variants = ("tiled", "naive", "grid")
+        self.sim.update(variant=variants[(variants.index(self.sim.params.variant) + 1) % len(variants)])
+
+    def toggle_box(self) -> None:
+        self.show_box = not self.show_box
+
+    def toggle_colors(self) -> None:
+        self.color_by_speed = not self.color_by_speed
+
+    # }}}

@@ -1,0 +1,177 @@
+"""SPH fluid 2D view (vol.1 ch.5, FluidRenderer + Particle.shader): one point per particle, expanded by a geometry
+shader into a soft sprite in the water colour on black; drag with the mouse to push the fluid."""
+
+from __future__ import annotations
+
+import math
+
+import moderngl
+import numpy as np
+
+from ..camera import FlatCamera
+from ..gl import Lines, load_program, set_camera, set_uniform
+from . import Key
+from . import View as BaseView
+
+COLOR_MODES = ("water", "speed", "density", "pressure")
+"""What the Tab key cycles through: the book's water colour, or a blue-to-red ramp of one quantity."""
+MIN_PARTICLES = 256
+MAX_PARTICLES = {"all_pairs": 32768, "grid": 1 << 20}
+"""Range of the [ and ] keys per neighbour search (the all-pairs loops cost N^2)."""
+NO_GRAVITY = (0.0, 0.0)
+
+
+class View(BaseView):
+    title = "SPH fluid 2D (vol.1 ch.5)"
+    background = (0.0, 0.0, 0.0)
+    keys = (
+        Key("[", "halve the particles (same fluid area: h, mass, radius scale)", "fewer_particles"),
+        Key("]", "double the particles (same fluid area: h, mass, radius scale)", "more_particles"),
+        Key("+", "pressure_stiffness x 1.5", "stiffer"),
+        Key("-", "pressure_stiffness / 1.5", "softer"),
+        Key(".", "viscosity x 2", "more_viscous"),
+        Key(",", "viscosity / 2", "less_viscous"),
+        Key("g", "gravity on/off (weightless fluid)", "toggle_gravity"),
+        Key("k", "neighbour search: all pairs (book) / uniform grid", "next_search"),
+        Key("tab", "colour: water / speed / density / pressure", "next_color_mode"),
+        Key("b", "box outline on/off", "toggle_box"),
+    )
+
+    def __init__(self, ctx: moderngl.Context, sim):
+        super().__init__(ctx, sim)
+        self.program = load_program(ctx, "sph_2d")
+        self.particles = None  # FluidParticle records: the book's _ParticlesBuffer
+        self.fields = None  # density, pressure per particle (colour modes)
+        self.box = Lines(ctx, color=(0.45, 0.45, 0.45, 1.0))
+        self.show_box, self.color_mode = True, "water"
+        self.color_scale = 1.0
+        self.saved_gravity = sim.params.gravity if sim.params.gravity != NO_GRAVITY else (0.0, -10.0)
+        self.mean_density = 0.0
+
+    def _rect(self) -> tuple[float, float, float, float]:
+        """The box plus a margin of range.y / 9 (the spec's camera: half-height 5.5 around (8, 4.5))."""
+        w, h = self.sim.params.range
+        margin = h / 9.0
+        return (-margin, w + margin, -margin, h + margin)
+
+    def make_camera(self):
+        return FlatCamera(rect=self._rect())
+
+    def upload(self) -> None:
+        data = self.sim.particles_array()
+        state_fields = np.column_stack([self.sim.density.get(), self.sim.pressure.get()]).astype("f4")
+        if self.particles is None or self.particles.size != data.nbytes:
+            for buffer in (self.particles, self.fields):
+                if buffer is not None:
+                    buffer.release()
+            self.particles = self.ctx.buffer(reserve=data.nbytes)
+            self.fields = self.ctx.buffer(reserve=state_fields.nbytes)
+            self.vao = self.ctx.vertex_array(
+                self.program,
+                [
+                    (self.particles, "2f 2f", "in_position", "in_velocity"),
+                    (self.fields, "1f 1f", "in_density", "in_pressure"),
+                ],
+            )
+        self.particles.write(data.tobytes())
+        self.fields.write(state_fields.tobytes())
+        self.mean_density = float(state_fields[:, 0].mean())
+        values = {
+            "water": None,
+            "speed": np.linalg.norm(data["velocity"], axis=1),
+            "density": state_fields[:, 0],
+            "pressure": state_fields[:, 1],
+        }[self.color_mode]
+        if values is not None:  # top of the ramp: the 99th percentile, so one fast particle does not wash it out
+            self.color_scale = max(float(np.percentile(values, 99)), 1e-6)
+        w, h = self.sim.params.range
+        self.box.set([[0, 0, 0], [w, 0, 0], [w, 0, 0], [w, h, 0], [w, h, 0], [0, h, 0], [0, h, 0], [0, 0, 0]])
+
+    def draw(self, camera) -> None:
+        p = self.sim.params
+        camera.rect = self._rect()  # follows a new box size after a reset
+        self.ctx.disable(moderngl.DEPTH_TEST)  # book: ZWrite Off; particles only blend
+        if self.show_box:
+            self.box.draw(camera)
+        set_camera(self.program, camera)
+        set_uniform(self.program, "particle_radius", p.particle_radius)
+        set_uniform(self.program, "water_color", p.water_color)
+        set_uniform(self.program, "color_mode", COLOR_MODES.index(self.color_mode))
+        set_uniform(self.program, "color_scale", self.color_scale)
+        self.ctx.enable(moderngl.BLEND)
+        self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        self.vao.render(moderngl.POINTS, vertices=self.sim.n)
+        self.ctx.disable(moderngl.BLEND)
+
+    def status(self) -> list[str]:
+        p = self.sim.params
+        gravity = "off" if p.gravity == NO_GRAVITY else f"{p.gravity[1]:g}"
+        scale = f" (top {self.color_scale:.3g})" if self.color_mode != "water" else ""
+        return [
+            f"N = {self.sim.n}  search: {p.search}  colour: {self.color_mode}{scale}",
+            f"mean density {self.mean_density:.2f} (rest {p.rest_density:g})  B = {p.pressure_stiffness:.3g}  "
+            f"mu = {p.viscosity:.3g}  h = {p.smoothlen:.3g}  gravity {gravity}",
+        ]
+
+    # {{{ mouse: hold and drag to push the fluid away (book: Fluid2D, _MouseDown / _MousePos)
+
+    def on_drag(self, camera, u: float, v: float, du: float, dv: float) -> None:
+        self.sim.push(*camera.to_world(u, v))
+
+    def on_release(self, camera) -> None:
+        self.sim.release()
+
+    # }}}
+
+    # {{{ key actions
+
+    def _resize(self, n: int) -> None:
+        """N particles over the same fluid area: h and the drawn radius scale with 1/sqrt(N), the mass with 1/N, so
+        the number of neighbours and the densities stay the scene's."""
+        p = self.sim.params
+        n = int(min(MAX_PARTICLES[p.search], max(MIN_PARTICLES, n)))
+        factor = n / self.sim.n
+        if factor == 1:
+            return
+        self.sim.update(
+            particle_num=n,
+            smoothlen=p.smoothlen / math.sqrt(factor),
+            particle_mass=p.particle_mass / factor,
+            particle_radius=p.particle_radius / math.sqrt(factor),
+        )
+
+    def fewer_particles(self) -> None:
+        self._resize(self.sim.n // 2)
+
+    def more_particles(self) -> None:
+        self._resize(self.sim.n * 2)
+
+    def stiffer(self) -> None:
+        self.sim.update(pressure_stiffness=self.sim.params.pressure_stiffness * 1.5)
+
+    def softer(self) -> None:
+        self.sim.update(pressure_stiffness=self.sim.params.pressure_stiffness / 1.5)
+
+    def more_viscous(self) -> None:
+        self.sim.update(viscosity=max(self.sim.params.viscosity * 2.0, 0.05))
+
+    def less_viscous(self) -> None:
+        self.sim.update(viscosity=self.sim.params.viscosity / 2.0)
+
+    def toggle_gravity(self) -> None:
+        if self.sim.params.gravity == NO_GRAVITY:
+            self.sim.update(gravity=self.saved_gravity)
+        else:
+            self.saved_gravity = self.sim.params.gravity
+            self.sim.update(gravity=NO_GRAVITY)
+
+    def next_search(self) -> None:
+        self.sim.update(search="grid" if self.sim.params.search == "all_pairs" else "all_pairs")
+
+    def next_color_mode(self) -> None:
+        self.color_mode = COLOR_MODES[(COLOR_MODES.index(self.color_mode) + 1) % len(COLOR_MODES)]
+
+    def toggle_box(self) -> None:
+        self.show_box = not self.show_box
+
+    # }}}
