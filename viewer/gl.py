@@ -131,25 +131,43 @@ def set_camera(program: moderngl.Program, camera) -> None:
         set_uniform(program, "eye", tuple(float(v) for v in camera.eye()))
 
 
+class GrowableBuffer:
+    """A GL buffer reallocated only when what is written no longer fits; then it gets ``headroom`` times the need,
+    so a growing tree or mesh does not reallocate every frame. ``write`` returns True when the buffer is new:
+    vertex arrays built on the old one must be rebuilt."""
+
+    def __init__(self, ctx: moderngl.Context, headroom: float = 1.0, min_bytes: int = 16):
+        self.ctx, self.headroom, self.min_bytes = ctx, headroom, min_bytes
+        self.buffer: moderngl.Buffer | None = None
+
+    def write(self, data) -> bool:
+        raw = data if isinstance(data, bytes) else np.ascontiguousarray(data).tobytes()
+        need = max(len(raw), self.min_bytes)
+        grown = self.buffer is None or self.buffer.size < need
+        if grown:
+            if self.buffer is not None:
+                self.buffer.release()
+            self.buffer = self.ctx.buffer(reserve=int(need * self.headroom))
+        if raw:
+            self.buffer.write(raw)
+        return grown
+
+
 class Lines:
     """World-space line segments in one colour (wall boxes, debug springs, edges)."""
 
     def __init__(self, ctx: moderngl.Context, vertices: np.ndarray | None = None, color=(0.0, 1.0, 1.0, 1.0)):
         self.ctx, self.color = ctx, color
         self.program = load_program(ctx, "lines")
-        self.vbo = None
+        self.vbo = GrowableBuffer(ctx)
+        self.count = 0
         if vertices is not None:
             self.set(vertices)
 
     def set(self, vertices: np.ndarray) -> None:
         data = np.ascontiguousarray(vertices, "f4").reshape(-1, 3)
-        if self.vbo is None or self.vbo.size < max(data.nbytes, 12):
-            if self.vbo is not None:
-                self.vbo.release()
-            self.vbo = self.ctx.buffer(reserve=max(data.nbytes, 12))
-            self.vao = self.ctx.vertex_array(self.program, [(self.vbo, "3f", "in_position")])
-        if data.nbytes:
-            self.vbo.write(data.tobytes())
+        if self.vbo.write(data):
+            self.vao = self.ctx.vertex_array(self.program, [(self.vbo.buffer, "3f", "in_position")])
         self.count = len(data)
 
     def draw(self, camera) -> None:
@@ -170,22 +188,19 @@ class Discs:
         self.program = load_program(ctx, "discs")
         corners = np.array([-1, -1, 1, -1, -1, 1, 1, 1], "f4")
         self.quad = ctx.buffer(corners.tobytes())
-        self.instances = None
+        self.instances = GrowableBuffer(ctx, min_bytes=4 * self.FLOATS)
         self.count = 0
 
     def set(self, data: np.ndarray) -> None:
         data = np.ascontiguousarray(data, "f4").reshape(-1, self.FLOATS)
-        nbytes = max(data.nbytes, 4 * self.FLOATS)
-        if self.instances is None or self.instances.size < nbytes:
-            if self.instances is not None:
-                self.instances.release()
-            self.instances = self.ctx.buffer(reserve=nbytes)
+        if self.instances.write(data):
             self.vao = self.ctx.vertex_array(
                 self.program,
-                [(self.quad, "2f", "in_corner"), (self.instances, "2f 1f 4f/i", "in_center", "in_radius", "in_color")],
+                [
+                    (self.quad, "2f", "in_corner"),
+                    (self.instances.buffer, "2f 1f 4f/i", "in_center", "in_radius", "in_color"),
+                ],
             )
-        if data.nbytes:
-            self.instances.write(data.tobytes())
         self.count = len(data)
 
     def draw(self, camera) -> None:

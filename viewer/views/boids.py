@@ -5,7 +5,7 @@ from __future__ import annotations
 import moderngl
 
 from ..camera import OrbitCamera
-from ..gl import Lines, load_program, set_camera
+from ..gl import GrowableBuffer, Lines, load_program, set_camera
 from ..meshes import box_edges, cube
 from . import Key
 from . import View as BaseView
@@ -35,7 +35,7 @@ class View(BaseView):
         vertices, indices = cube()
         self.mesh_vbo = ctx.buffer(vertices.tobytes())
         self.mesh_ibo = ctx.buffer(indices.tobytes())
-        self.instances = None
+        self.instances = GrowableBuffer(ctx)
         self.box = Lines(ctx, color=(0.0, 1.0, 1.0, 1.0))
         self.show_box, self.color_by_speed = True, False
         self.saved_weights: dict[str, float] = {}
@@ -49,19 +49,15 @@ class View(BaseView):
 
     def upload(self) -> None:
         data = self.sim.boids()
-        if self.instances is None or self.instances.size != data.nbytes:
-            if self.instances is not None:
-                self.instances.release()
-            self.instances = self.ctx.buffer(reserve=data.nbytes)
+        if self.instances.write(data):
             self.vao = self.ctx.vertex_array(
                 self.program,
                 [
                     (self.mesh_vbo, "3f 3f", "in_position", "in_normal"),
-                    (self.instances, "4f 4f/i", "in_velocity", "in_offset"),
+                    (self.instances.buffer, "4f 4f/i", "in_velocity", "in_offset"),
                 ],
                 index_buffer=self.mesh_ibo,
             )
-        self.instances.write(data.tobytes())
         p = self.sim.params
         self.box.set(box_edges(p.wall_center, p.wall_size))
 

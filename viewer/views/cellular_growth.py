@@ -16,7 +16,7 @@ import numpy as np
 from ugpcl.scenes.cellular_growth import PATTERNS
 
 from ..camera import FlatCamera, OrbitCamera
-from ..gl import load_program, set_camera, set_uniform
+from ..gl import GrowableBuffer, load_program, set_camera, set_uniform
 from . import Key
 from . import View as BaseView
 
@@ -98,7 +98,7 @@ class View(BaseView):
         self.disc_vao = ctx.vertex_array(self.disc_program, [(self.quad, "2f", "in_corner")])
         self.sphere_vao = ctx.vertex_array(self.sphere_program, [(self.quad, "2f", "in_corner")])
         self.edge_vao = ctx.vertex_array(self.edge_program, [])
-        self.buffers: dict[str, moderngl.Buffer] = {}
+        self.buffers = {name: GrowableBuffer(ctx, min_bytes=32) for name in SSBO_BINDINGS}
         self.lower, self.upper = np.array([-1.0, -1.0]), np.array([1.0, 1.0])
         self.camera = None
         self.alive = self.edge_count = 0
@@ -121,20 +121,11 @@ class View(BaseView):
 
     # {{{ GL
 
-    def _buffer(self, name: str, data: np.ndarray) -> None:
-        nbytes = max(data.nbytes, 32)
-        if name not in self.buffers or self.buffers[name].size != nbytes:
-            if name in self.buffers:
-                self.buffers[name].release()
-            self.buffers[name] = self.ctx.buffer(reserve=nbytes)
-        if data.nbytes:
-            self.buffers[name].write(data.tobytes())
-
     def upload(self) -> None:
         parts = self.sim.particle_records()
         edges = self.sim.edge_records()
-        self._buffer("particles", parts)
-        self._buffer("edges", edges)
+        self.buffers["particles"].write(parts)
+        self.buffers["edges"].write(edges)
         self.count, self.edge_slots = len(parts), len(edges)
         alive = parts["alive"] != 0
         self.alive = int(alive.sum())
@@ -152,7 +143,7 @@ class View(BaseView):
 
     def draw(self, camera) -> None:
         for name, binding in SSBO_BINDINGS.items():
-            self.buffers[name].bind_to_storage_buffer(binding)
+            self.buffers[name].buffer.bind_to_storage_buffer(binding)
         render = self._render()
         if render == "spheres":
             self.ctx.enable(moderngl.DEPTH_TEST)

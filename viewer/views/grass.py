@@ -11,7 +11,7 @@ from ugpcl.geometry.grass import BLADE_VERTICES, strip_triangles
 from ugpcl.scenes.grass import PARAM_FIELDS
 
 from ..camera import OrbitCamera, OrthoCamera
-from ..gl import load_program, set_camera, set_uniform
+from ..gl import GrowableBuffer, load_program, set_camera, set_uniform
 from . import Key
 from . import View as BaseView
 
@@ -45,7 +45,7 @@ class _GeometryShaderView(BaseView):
         super().__init__(ctx, sim)
         self.cull, self.wireframe, self.path = False, False, PATHS[0]
         self.strip_program = load_program(ctx, "grass_strip", fragment="grass")
-        self.strip_vbo = self.strip_ibo = None
+        self.strip_vbo, self.strip_ibo, self.strip_vertices = GrowableBuffer(ctx), None, 0
 
     def _begin(self) -> None:
         self.ctx.enable(moderngl.DEPTH_TEST)
@@ -63,19 +63,18 @@ class _GeometryShaderView(BaseView):
         """The kernel's world-space vertices and colours, interleaved; ``triangles()`` gives their triangle list,
         called only when the vertex count changes (the list depends on nothing else)."""
         data = np.concatenate([positions.reshape(-1, 3), colors.reshape(-1, 4)], axis=1).astype("f4")
-        if self.strip_vbo is None or self.strip_vbo.size != data.nbytes:
-            for buffer in (self.strip_vbo, self.strip_ibo):
-                if buffer is not None:
-                    buffer.release()
-            self.strip_vbo = self.ctx.buffer(reserve=data.nbytes)
+        grown = self.strip_vbo.write(data)
+        if grown or len(data) != self.strip_vertices:
+            if self.strip_ibo is not None:
+                self.strip_ibo.release()
             self.strip_ibo = self.ctx.buffer(np.ascontiguousarray(triangles(), "u4").tobytes())
+            self.strip_vertices = len(data)
             self.strip_vao = self.ctx.vertex_array(
                 self.strip_program,
-                [(self.strip_vbo, "3f 4f", "in_position", "in_color")],
+                [(self.strip_vbo.buffer, "3f 4f", "in_position", "in_color")],
                 index_buffer=self.strip_ibo,
                 index_element_size=4,
             )
-        self.strip_vbo.write(data.tobytes())
 
     def _draw_strips(self, camera) -> None:
         set_camera(self.strip_program, camera)

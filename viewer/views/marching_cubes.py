@@ -18,7 +18,7 @@ from ugpcl.geometry.marching_cubes_tables import CUBE_EDGE_FLAGS, TRIANGLE_CONNE
 from ugpcl.scenes.marching_cubes import NORMALS, SHAPES, field_constants
 
 from ..camera import OrbitCamera, look_at, orthographic
-from ..gl import load_program, set_camera, set_uniform
+from ..gl import GrowableBuffer, load_program, set_camera, set_uniform
 from . import Key
 from . import View as BaseView
 
@@ -100,7 +100,7 @@ class View(BaseView):
         self.textures["shadow_map"].repeat_x = self.textures["shadow_map"].repeat_y = False
         self.shadow_fbo = ctx.framebuffer(depth_attachment=self.textures["shadow_map"])
         self.field_texture = None
-        self.mesh_vbo, self.mesh_vaos, self.mesh_vertices = None, {}, 0
+        self.mesh_vbo, self.mesh_vaos, self.mesh_vertices = GrowableBuffer(ctx, headroom=1.25, min_bytes=24), {}, 0
         floor = np.array(
             [[x, FLOOR_Y, z, 0.0, 1.0, 0.0] for x, z in ((-5, -5), (5, -5), (5, 5), (-5, -5), (5, 5), (-5, 5))], "f4"
         )
@@ -139,20 +139,16 @@ class View(BaseView):
             tri = self.sim.pool.read()
             vertices = np.concatenate([tri["position"].reshape(-1, 3), tri["normal"].reshape(-1, 3)], axis=1)
             vertices = np.ascontiguousarray(vertices, np.float32)
-            if self.mesh_vbo is None or self.mesh_vbo.size < max(vertices.nbytes, 24):
-                if self.mesh_vbo is not None:
-                    self.mesh_vbo.release()
-                self.mesh_vbo = self.ctx.buffer(reserve=max(vertices.nbytes, 24) * 5 // 4)
+            if self.mesh_vbo.write(vertices):
+                vbo = self.mesh_vbo.buffer
                 self.mesh_vaos = {  # the shadow pass reads positions only (its program has no in_normal)
                     "lit": self.ctx.vertex_array(
-                        self.programs[("mesh", "lit")], [(self.mesh_vbo, "3f 3f", "in_position", "in_normal")]
+                        self.programs[("mesh", "lit")], [(vbo, "3f 3f", "in_position", "in_normal")]
                     ),
                     "shadow": self.ctx.vertex_array(
-                        self.programs[("mesh", "shadow")], [(self.mesh_vbo, "3f 12x", "in_position")]
+                        self.programs[("mesh", "shadow")], [(vbo, "3f 12x", "in_position")]
                     ),
                 }
-            if vertices.nbytes:
-                self.mesh_vbo.write(vertices.tobytes())
             self.mesh_vertices = len(vertices)
 
     def _material(self, program, color=None) -> None:

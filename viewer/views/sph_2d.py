@@ -9,7 +9,7 @@ import moderngl
 import numpy as np
 
 from ..camera import FlatCamera
-from ..gl import Lines, load_program, set_camera, set_uniform
+from ..gl import GrowableBuffer, Lines, load_program, set_camera, set_uniform
 from . import Key
 from . import View as BaseView
 
@@ -40,8 +40,8 @@ class View(BaseView):
     def __init__(self, ctx: moderngl.Context, sim):
         super().__init__(ctx, sim)
         self.program = load_program(ctx, "sph_2d")
-        self.particles = None  # FluidParticle records: the book's _ParticlesBuffer
-        self.fields = None  # density, pressure per particle (colour modes)
+        self.particles = GrowableBuffer(ctx)  # FluidParticle records: the book's _ParticlesBuffer
+        self.fields = GrowableBuffer(ctx)  # density, pressure per particle (colour modes)
         self.box = Lines(ctx, color=(0.45, 0.45, 0.45, 1.0))
         self.show_box, self.color_mode = True, "water"
         self.color_scale = 1.0
@@ -60,21 +60,15 @@ class View(BaseView):
     def upload(self) -> None:
         data = self.sim.particles_array()
         state_fields = np.column_stack([self.sim.density.get(), self.sim.pressure.get()]).astype("f4")
-        if self.particles is None or self.particles.size != data.nbytes:
-            for buffer in (self.particles, self.fields):
-                if buffer is not None:
-                    buffer.release()
-            self.particles = self.ctx.buffer(reserve=data.nbytes)
-            self.fields = self.ctx.buffer(reserve=state_fields.nbytes)
+        grown = self.particles.write(data)
+        if self.fields.write(state_fields) or grown:
             self.vao = self.ctx.vertex_array(
                 self.program,
                 [
-                    (self.particles, "2f 2f", "in_position", "in_velocity"),
-                    (self.fields, "1f 1f", "in_density", "in_pressure"),
+                    (self.particles.buffer, "2f 2f", "in_position", "in_velocity"),
+                    (self.fields.buffer, "1f 1f", "in_density", "in_pressure"),
                 ],
             )
-        self.particles.write(data.tobytes())
-        self.fields.write(state_fields.tobytes())
         self.mean_density = float(state_fields[:, 0].mean())
         values = {
             "water": None,
