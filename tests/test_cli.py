@@ -1,4 +1,5 @@
-"""The headless CLI: `ugpcl run` writes what the spec says, bad input exits 2 with one line."""
+"""The headless CLI: `ugpcl run` writes what the chapter pages say, bad input exits 2 with one line, a failure
+during a run exits 1 with one line, output is checked before the run and written whole."""
 
 from __future__ import annotations
 
@@ -84,6 +85,11 @@ def test_every_k_stacks_a_history(capsys, tmp_path):
         (["run", "boids", "--every", "0"], "--every must be >= 1"),
         (["run", "compute_intro", "--every", "2"], "keeps no history"),
         (["run", "boids", "--mesh", "x.obj"], "--mesh: scene boids makes no mesh"),
+        (["run", "marching_cubes", "--mesh", "m.glb"], "--mesh must end in .obj or .ply, got 'm.glb'"),
+        (["run", "boids", "--out", "noext"], "--out must end in .npz, got 'noext'"),
+        (["run", "boids", "--png", "x.jpg"], "--png must end in .png"),
+        (["run", "boids", "--png-size", "10x10"], "--png-size must be WxH with 16..8192 each"),
+        (["run", "boids", "--out", "/etc/hostname/x.npz"], "--out /etc/hostname/x.npz: cannot write in /etc/hostname"),
     ],
 )
 def test_bad_input_is_one_clear_line_and_exit_2(capsys, argv, message):
@@ -164,3 +170,67 @@ def test_console_script_runs(tmp_path):
         timeout=120,
     )
     assert result.returncode == 2 and "max_object_num must be in" in result.stderr
+
+
+def test_output_folder_is_rejected_before_the_run(capsys, tmp_path):
+    code, _, err = run(capsys, "run", "boids", "--steps", "1", "--out", str(tmp_path))
+    assert code == 2 and "is a folder" in err and err.count("\n") == 1
+
+
+def test_a_failure_during_the_run_exits_1_with_one_line(capsys, tmp_path, monkeypatch):
+    from ugpcl.scenes import boids
+
+    def step(self, dt=None):
+        raise ValueError("node pool ran out: 0 free slots of 64")
+
+    monkeypatch.setattr(boids.Simulation, "step", step)
+    out = tmp_path / "x.npz"
+    out.write_bytes(b"the previous result")
+    code, _, err = run(capsys, "run", "boids", "--steps", "3", "--set", "max_object_num=64", "--out", str(out))
+    assert code == 1 and err.strip().splitlines()[-1] == "ugpcl: error: node pool ran out: 0 free slots of 64"
+    assert out.read_bytes() == b"the previous result", "a failed run must not touch the old file"
+
+
+def test_device_option_chooses_the_device(capsys, tmp_path):
+    out = tmp_path / "x.npz"
+    code, _, err = run(capsys, "run", "boids", "--steps", "1", "--device", "pocl", "--out", str(out))
+    assert code == 0 and "Portable Computing Language" in str(np.load(out)["device"])
+    code, _, err = run(capsys, "run", "boids", "--steps", "1", "--device", "no-such-device", "--out", str(out))
+    assert code == 1 and "UGPCL_DEVICE='no-such-device' matches no OpenCL device" in err
+
+
+def test_params_table_fits_the_terminal(capsys, monkeypatch):
+    for columns in (80, 100, 120):
+        monkeypatch.setenv("COLUMNS", str(columns))
+        code, out, _ = run(capsys, "params", "boids")
+        lines = out.splitlines()
+        assert code == 0 and max(map(len, lines)) <= columns, (columns, max(lines, key=len))
+        # nothing is cut: a long word may be broken across lines, but its pieces follow each other
+        assert "(book:_SeparateNeighborhoodRadius)." in "".join(out.split())
+
+
+def test_broken_pipe_ends_quietly():
+    ugpcl = str(__import__("pathlib").Path(sys.executable).parent / "ugpcl")
+    for argv in (["params", "boids"], ["list"]):
+        result = subprocess.run(
+            f"{ugpcl} {' '.join(argv)} | head -1", shell=True, capture_output=True, text=True, timeout=60
+        )
+        assert result.returncode == 0 and len(result.stdout.splitlines()) == 1
+        assert "Traceback" not in result.stderr and "BrokenPipe" not in result.stderr, result.stderr
+
+
+def test_progress_bar_counts_finished_steps(tmp_path):
+    """On a terminal (a pseudo-terminal made by `script`) the bar moves while the run goes on."""
+    ugpcl = __import__("pathlib").Path(sys.executable).parent / "ugpcl"
+    cmd = f"{ugpcl} run boids --steps 40 --set max_object_num=2048 --out {tmp_path / 'x.npz'}"
+    result = subprocess.run(["script", "-qc", cmd, "/dev/null"], capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stdout
+    counts = [int(m) for m in __import__("re").findall(r"\| *(\d+)/40 \[", result.stdout)]
+    assert counts[0] < 40 and counts[-1] == 40 and len(set(counts)) >= 3, counts
+
+
+def test_view_without_a_display_says_so_in_one_line():
+    env = {k: v for k, v in __import__("os").environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    view = __import__("pathlib").Path(sys.executable).parent / "ugpcl-view"
+    result = subprocess.run([str(view), "boids"], capture_output=True, text=True, timeout=60, env=env)
+    assert result.returncode == 1 and result.stderr.count("\n") == 1 and "no display" in result.stderr

@@ -29,3 +29,49 @@ def seconds_per_call(fn, queue, min_seconds: float = 0.5, max_calls: int = 1000)
         queue.finish()
         calls += 1
     return (time.perf_counter() - start) / calls
+
+
+def bench_launch(runtime, sizes=None) -> list[dict]:
+    """Host cost of one kernel launch (LaunchProbe: 3 buffers, 4 scalars, 256 work-items), per way of launching:
+    PyOpenCL's plain call `kernel(queue, gsize, lsize, *args)` (sets every argument every time), a bare
+    `enqueue_nd_range_kernel` with the arguments set once, and ugpcl's launch path (runtime.Kernel: buffers set once,
+    scalars from their bytes). host us/launch: time to enqueue; us/launch: with the device's work, the
+    queue finished at the end of each batch."""
+    import numpy as np
+    import pyopencl as cl
+
+    n, batch = 256, 2000
+    queue = runtime.queue
+    a, b, out = (runtime.zeros(n, np.float32) for _ in range(3))
+    wrapper = runtime.program("launch").kernel("LaunchProbe")
+    plain = cl.Kernel(wrapper.cl.program, "LaunchProbe")  # a second cl.Kernel: its arguments are its own
+    fixed = (a.data, b.data, out.data, np.int32(n), np.float32(2.0))
+
+    def plain_call(i):
+        plain(queue, (n,), None, *fixed, np.float32(i), np.int32(0))
+
+    def bare_enqueue(i):
+        cl.enqueue_nd_range_kernel(queue, plain, (n,), None)
+
+    def launch_path(i):
+        wrapper((n,), None, *fixed, np.float32(i), np.int32(0))
+
+    rows = []
+    for name, launch in (("plain call", plain_call), ("bare enqueue", bare_enqueue), ("launch path", launch_path)):
+        if launch is bare_enqueue:
+            plain.set_args(*fixed, np.float32(0.0), np.int32(0))
+        host, total = [], []
+        for _ in range(5):  # the best of five batches: the least disturbed by the rest of the machine
+            queue.finish()
+            start = time.perf_counter()
+            for i in range(batch):
+                launch(i)
+            enqueued = time.perf_counter()
+            queue.finish()
+            host.append((enqueued - start) / batch)
+            total.append((time.perf_counter() - start) / batch)
+        rows.append({"launch": name, "host us/launch": min(host) * 1e6, "us/launch": min(total) * 1e6})
+    bare = rows[1]["host us/launch"]
+    for row in rows:
+        row["x bare"] = row["host us/launch"] / bare
+    return rows

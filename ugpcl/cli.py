@@ -1,35 +1,53 @@
 """``ugpcl list | info | params | run | bench``: the headless front end.
 
-Results go to stdout, logs and errors to stderr. Exit codes: 0 ok, 1 runtime failure (no device, build
-error), 2 bad usage (unknown scene, bad parameter).
+Results go to stdout, logs, progress and errors to stderr. Exit codes: 0 ok; 2 bad usage (unknown scene, bad
+parameter, an output path that cannot be written), found before anything runs; 1 a failure while running (no
+device, a build error, a pool or grid that runs out, a file that cannot be written); 130 interrupted (Ctrl-C).
+Every error is one line.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import shutil
 import sys
+import textwrap
 import time
+from collections import deque
 from pathlib import Path
 
 import numpy as np
+import pyopencl as cl
 
 from . import __version__
+from .geometry.mesh_io import MESH_SUFFIXES
 from .runtime import BuildError, DeviceError, Runtime, all_devices
 from .scene import Scene, Simulation, check_dt
 from .scenes import get, modules, scenes
 
-USAGE_ERROR, RUNTIME_ERROR = 2, 1
+USAGE_ERROR, RUNTIME_ERROR, INTERRUPTED = 2, 1, 130
+STEPS_IN_FLIGHT = 4
+"""Steps ``ugpcl run`` lets the device queue hold before it waits for the oldest: the progress bar counts
+finished steps, and the host never runs far ahead of the device."""
 
 
 class UsageError(Exception):
-    """Bad input from the command line: printed as one line, exit 2."""
+    """Bad input from the command line, found before the run starts: printed as one line, exit 2."""
 
 
 # {{{ tables
 
 
-def format_table(rows: list[dict], columns: list[str] | None = None) -> str:
-    """Plain fixed-width table; floats get 4 significant digits (or engineering form when large)."""
+def terminal_width() -> int:
+    """Columns of the terminal (``COLUMNS`` wins); 160 when the output is not a terminal."""
+    return shutil.get_terminal_size(fallback=(160, 24)).columns
+
+
+def format_table(rows: list[dict], columns: list[str] | None = None, width: int | None = None) -> str:
+    """A plain-text table that fits ``width`` (default: the terminal): text left-aligned, numbers right-aligned,
+    columns narrowed from the widest down and their cells wrapped at word boundaries; floats get 4 significant
+    digits (or engineering form when large or small)."""
     if not rows:
         return "(no rows)"
     columns = columns or list(dict.fromkeys(k for row in rows for k in row))
@@ -40,10 +58,30 @@ def format_table(rows: list[dict], columns: list[str] | None = None) -> str:
         return str(v)
 
     text = [[cell(row.get(c, "")) for c in columns] for row in rows]
-    widths = [max(len(c), *(len(t[i]) for t in text)) for i, c in enumerate(columns)]
-    lines = ["  ".join(c.ljust(w) for c, w in zip(columns, widths, strict=True))]
-    lines.append("  ".join("-" * w for w in widths))
-    lines += ["  ".join(t.rjust(w) for t, w in zip(r, widths, strict=True)) for r in text]
+    numeric = [all(isinstance(row.get(c), int | float) for row in rows if c in row) for c in columns]
+    widths = [max(len(c), *(len(r[i]) for r in text)) for i, c in enumerate(columns)]
+    # narrowest a column may get: the first (the names) stays whole; the others keep their header and words up to
+    # 16 characters whole (longer words break)
+    floors = [widths[0]] + [
+        min(w, max(len(c), min(16, max(len(word) for r in text for word in r[i].split() or [""]))))
+        for i, (c, w) in enumerate(zip(columns, widths, strict=True))
+    ][1:]
+    budget = (width or terminal_width()) - 2 * (len(columns) - 1)
+    while sum(widths) > budget:
+        i = max(range(len(widths)), key=lambda k: (widths[k] > floors[k], widths[k], k))  # the widest first
+        if widths[i] <= floors[i]:
+            break  # every column at its floor: let the line run long rather than lose text
+        widths[i] -= 1
+
+    def line(cells: list[str]) -> str:
+        parts = [t.rjust(w) if num else t.ljust(w) for t, w, num in zip(cells, widths, numeric, strict=True)]
+        return "  ".join(parts).rstrip()
+
+    lines = [line(list(columns)), "  ".join("-" * w for w in widths)]
+    for r in text:
+        wrapped = [textwrap.wrap(t, w, break_on_hyphens=False) or [""] for t, w in zip(r, widths, strict=True)]
+        for k in range(max(len(cell_lines) for cell_lines in wrapped)):
+            lines.append(line([cell_lines[k] if k < len(cell_lines) else "" for cell_lines in wrapped]))
     return "\n".join(lines)
 
 
@@ -53,8 +91,7 @@ def format_table(rows: list[dict], columns: list[str] | None = None) -> str:
 
 
 def cmd_list(args) -> int:
-    for name, scene in scenes().items():
-        print(f"{name:32s} {scene.summary}")
+    print(format_table([{"scene": name, "what you see": scene.summary} for name, scene in scenes().items()]))
     return 0
 
 
@@ -81,11 +118,10 @@ def cmd_info(args) -> int:
     print("OpenCL devices:")
     for d in devices:
         print(f"  {d.platform.name} | {d.name}  ({d.platform.version})")
-    runtime = Runtime()
+    runtime = Runtime(args.device)
     print("\nchosen:")
     facts = runtime.describe()
-    for key, value in facts.items():
-        print(f"  {key:22s} {value}")
+    print(format_table([{"fact": key, "value": str(value)} for key, value in facts.items()]))
     d = runtime.device
     print("\nlimits (book, ch.2 2.4.3) vs this device:")
     print(
@@ -96,45 +132,59 @@ def cmd_info(args) -> int:
                 {"limit": "groups per axis", "book (cs_5_0)": "65535", "device": "unbounded (size_t global size)"},
                 {"limit": "shared memory", "book (cs_5_0)": "16 KB per group", "device": facts["local memory"]},
                 {"limit": "constant memory", "book (cs_5_0)": "-", "device": facts["constant buffer"]},
-                {"limit": "compute units (SMs)", "book (cs_5_0)": "-", "device": d.max_compute_units},
+                {"limit": "compute units (SMs)", "book (cs_5_0)": "-", "device": str(d.max_compute_units)},
             ]
         )
     )
     print("\nHLSL compute shader -> OpenCL (ch.2):")
-    for hlsl, ocl in HLSL_TO_OPENCL:
-        print(f"  {hlsl:46s} {ocl}")
+    print(format_table([{"HLSL": hlsl, "OpenCL": ocl} for hlsl, ocl in HLSL_TO_OPENCL]))
     return 0
 
 
 def cmd_params(args) -> int:
-    scene = get(args.scene)
-    rows = scene.simulation.Params.table()
-    for row in rows:
-        if row["name"] in scene.defaults:
-            row["default"] = str(scene.defaults[row["name"]])
-    print(format_table(rows))
+    print(format_table(scene_named(args.scene).table()))
     return 0
 
 
+def scene_named(name: str) -> Scene:
+    try:
+        return get(name)
+    except ValueError as err:  # unknown scene: the message lists the valid names
+        raise UsageError(str(err)) from None
+
+
 def parse_sets(scene: Scene, pairs: list[str]) -> dict:
+    """``--set NAME=VALUE`` pairs converted with each field's type; UsageError names the bad one."""
     params = scene.simulation.Params
     out = {}
     for pair in pairs:
         name, sep, text = pair.partition("=")
         if not sep:
             raise UsageError(f"--set expects name=value, got {pair!r}")
-        out[name.strip()] = params.parse(name.strip(), text)
+        try:
+            out[name.strip()] = params.parse(name.strip(), text)
+        except ValueError as err:
+            raise UsageError(str(err)) from None
     return out
 
 
 def _progress(total: int):
+    """A progress bar on stderr, shown only on a terminal (tqdm's ``disable=None``)."""
     from tqdm import tqdm
 
-    return tqdm(total=total, unit="step", file=sys.stderr, disable=None, leave=False, mininterval=0.5)
+    # a pseudo-terminal may report a 0 x 0 screen (script, some CI runners): tqdm would then draw nothing
+    columns, lines = shutil.get_terminal_size()
+    return tqdm(
+        total=total, unit="step", file=sys.stderr, disable=None, mininterval=0.25, ncols=min(columns, 100), nrows=lines
+    )
 
 
 def run_steps(sim: Simulation, steps: int, dt: float, every: int | None) -> dict[str, np.ndarray]:
-    """Step ``sim`` and return the final state plus, with ``every``, stacked ``<name>_history`` and ``time``."""
+    """Step ``sim`` and return the final state plus, with ``every``, stacked ``<name>_history`` and ``time``.
+
+    ``step`` only enqueues work; a marker after each step tells when it has finished on the device, and the bar
+    advances then. At most STEPS_IN_FLIGHT steps are queued ahead of the device."""
+    queue = sim.runtime.queue
     frames, times = [], []
 
     def snapshot():
@@ -144,12 +194,21 @@ def run_steps(sim: Simulation, steps: int, dt: float, every: int | None) -> dict
 
     if every:
         snapshot()
-    with _progress(steps) as bar:
+    in_flight: deque[cl.Event] = deque()
+    complete = cl.command_execution_status.COMPLETE
+    with _progress(steps) as progress:
         for i in range(1, steps + 1):
             sim.step(dt)
             if every and i % every == 0:
                 snapshot()
-            bar.update()
+            in_flight.append(cl.enqueue_marker(queue))
+            queue.flush()
+            while in_flight and (len(in_flight) > STEPS_IN_FLIGHT or in_flight[0].command_execution_status == complete):
+                in_flight.popleft().wait()
+                progress.update()
+        while in_flight:
+            in_flight.popleft().wait()
+            progress.update()
     out = dict(sim.state())
     if every:
         for key in sim.history:
@@ -158,78 +217,130 @@ def run_steps(sim: Simulation, steps: int, dt: float, every: int | None) -> dict
     return out
 
 
+def output_path(text: str | None, option: str, suffixes: tuple[str, ...]) -> Path | None:
+    """Check an output file before the run: its format by suffix, that it is not a folder, and that its folder
+    exists or can be made and is writable. Nothing is written yet."""
+    if text is None:
+        return None
+    path = Path(text)
+    if path.is_dir():
+        raise UsageError(f"{option} {text}: is a folder; give a file name ending in {' or '.join(suffixes)}")
+    if path.suffix.lower() not in suffixes:
+        raise UsageError(f"{option} must end in {' or '.join(suffixes)}, got {text!r}")
+    folder = path.parent.resolve()
+    while not folder.exists():  # the first folder that exists must let us make the rest
+        folder = folder.parent
+    if not folder.is_dir() or not os.access(folder, os.W_OK | os.X_OK):
+        raise UsageError(f"{option} {text}: cannot write in {folder}")
+    return path
+
+
+def write_npz(path: Path, arrays: dict) -> None:
+    """Write ``path`` whole or not at all: a temporary file in the same folder, renamed over the old one."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial = path.with_name(f".{path.name}.partial")
+    try:
+        with open(partial, "wb") as f:
+            np.savez(f, **arrays)
+        os.replace(partial, path)
+    finally:
+        partial.unlink(missing_ok=True)
+
+
 def cmd_run(args) -> int:
-    scene = get(args.scene)
-    overrides = parse_sets(scene, args.set or [])
-    params = scene.params(**overrides)
+    # {{{ everything that can be checked before the run
+    scene = scene_named(args.scene)
+    params = _params(scene, parse_sets(scene, args.set or []))
     if args.steps < 0:
         raise UsageError(f"--steps must be >= 0, got {args.steps}")
     if args.every is not None and args.every < 1:
         raise UsageError(f"--every must be >= 1, got {args.every}")
     if args.every and not scene.simulation.history:
         raise UsageError(f"--every: scene {scene.name} keeps no history arrays")
-    dt = check_dt(args.dt, scene.simulation.default_dt)
+    try:
+        dt = check_dt(args.dt, scene.simulation.default_dt)
+    except ValueError as err:
+        raise UsageError(f"--{err}") from None
     if args.mesh and not hasattr(scene.simulation, "export_mesh"):
         raise UsageError(f"--mesh: scene {scene.name} makes no mesh")
-    runtime = Runtime()
+    out = output_path(args.out or f"out/{scene.name}.npz", "--out", (".npz",))
+    png = output_path(args.png, "--png", (".png",))
+    mesh = output_path(args.mesh, "--mesh", MESH_SUFFIXES)
+    size = parse_size(args.png_size)
+    # }}}
+    runtime = Runtime(args.device)
     print(f"ugpcl: {scene.name} on {runtime.label}", file=sys.stderr)
     sim = scene.simulation(runtime, params, args.seed)
     start = time.perf_counter()
     state = run_steps(sim, args.steps, dt, args.every)
     runtime.finish()
     seconds = time.perf_counter() - start
-    out = Path(args.out or f"out/{scene.name}.npz")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    np.savez(
+    write_npz(
         out,
-        **state,
-        params=np.array(params.to_json(dt=dt)),
-        scene=np.array(scene.name),
-        seed=np.int64(args.seed),
-        steps=np.int64(args.steps),
-        device=np.array(runtime.label),
-        ugpcl_version=np.array(__version__),
+        {
+            **state,
+            "params": np.array(params.to_json(dt=dt)),
+            "scene": np.array(scene.name),
+            "seed": np.int64(args.seed),
+            "steps": np.int64(args.steps),
+            "device": np.array(runtime.label),
+            "ugpcl_version": np.array(__version__),
+        },
     )
     print(f"wrote {out} ({args.steps} steps in {seconds:.2f} s): {', '.join(sorted(state))}")
     for key, value in sim.stats().items():
         print(f"  {key}: {value}")
-    if args.mesh:
-        sim.export_mesh(args.mesh)
-        print(f"wrote {args.mesh}")
-    if args.png:
-        from ugpcl.viewer.offscreen import render_png
+    if mesh:
+        mesh.parent.mkdir(parents=True, exist_ok=True)
+        sim.export_mesh(mesh)
+        print(f"wrote {mesh}")
+    if png:
+        from .viewer.offscreen import render_png
 
-        size = _parse_size(args.png_size)
-        render_png(scene, sim, args.png, size)
-        print(f"wrote {args.png}")
+        png.parent.mkdir(parents=True, exist_ok=True)
+        render_png(scene, sim, png, size)
+        print(f"wrote {png}")
     return 0
 
 
-def _parse_size(text: str) -> tuple[int, int]:
+def _params(scene: Scene, overrides: dict):
+    try:
+        return scene.params(**overrides)
+    except ValueError as err:  # a range or cross-field check of Params
+        raise UsageError(str(err)) from None
+
+
+def parse_size(text: str, option: str = "--png-size") -> tuple[int, int]:
+    """``WxH`` (16..8192 each) as (width, height); UsageError naming ``option`` otherwise."""
     try:
         w, h = (int(v) for v in text.lower().split("x"))
         if not (16 <= w <= 8192 and 16 <= h <= 8192):
             raise ValueError
     except ValueError:
-        raise UsageError(f"--png-size must be WxH with 16..8192 each, got {text!r}") from None
+        raise UsageError(f"{option} must be WxH with 16..8192 each, got {text!r}") from None
     return w, h
 
 
+def _benches() -> dict:
+    """What ``ugpcl bench`` can time: the runtime's launch cost, then every chapter module with a ``bench``."""
+    from .benchmark import bench_launch
+
+    return {"launch": bench_launch, **{name: m.bench for name, m in modules().items() if hasattr(m, "bench")}}
+
+
 def cmd_bench(args) -> int:
-    names = list(modules()) if args.all or not args.scene else args.scene
+    benches = _benches()
+    names = list(benches) if args.all or not args.scene else args.scene
     for name in names:
-        if name not in modules():
-            stems = [n for n, m in modules().items() if hasattr(m, "bench")]
-            raise UsageError(f"unknown bench {name!r}; valid: {', '.join(stems)}")
-    runtime = Runtime()
+        if name not in benches:
+            raise UsageError(f"unknown bench {name!r}; valid: {', '.join(benches)}")
+    runtime = Runtime(args.device)
     date = time.strftime("%Y-%m-%d")
     for name in names:
-        module = modules()[name]
-        if not hasattr(module, "bench"):
-            continue
-        rows = module.bench(runtime, args.size)
+        bench = benches[name]
+        rows = bench(runtime, args.size)
         print(f"\n## {name}  ({runtime.label}, {date})")
-        print(" ".join(module.bench.__doc__.split()))
+        print(" ".join(bench.__doc__.split()))
         print(format_table(rows))
         sys.stdout.flush()
     return 0
@@ -238,35 +349,45 @@ def cmd_bench(args) -> int:
 # }}}
 
 
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Shows ``(default: X)`` once, and not at all for options whose absence is their default (None, False)."""
+
+    def _get_help_string(self, action) -> str:
+        if action.default is None or action.default is False or "default:" in (action.help or ""):
+            return action.help or ""
+        return super()._get_help_string(action)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    fmt = argparse.ArgumentDefaultsHelpFormatter
+    fmt = HelpFormatter
+    device = argparse.ArgumentParser(add_help=False)
+    device.add_argument(
+        "--device",
+        default=None,
+        metavar="NAME",
+        help="OpenCL device: a substring of 'platform | device' such as pocl or nvidia (also UGPCL_DEVICE; "
+        "unset: PYOPENCL_CTX, then the first GPU, then the first CPU)",
+    )
     parser = argparse.ArgumentParser(
         prog="ugpcl", description=__doc__.splitlines()[0], formatter_class=fmt, allow_abbrev=False
     )
     parser.add_argument("--version", action="version", version=f"ugpcl {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
-    sub.add_parser("list", help="scenes and what they show", formatter_class=fmt, allow_abbrev=False).set_defaults(
-        func=cmd_list
-    )
-    sub.add_parser(
-        "info",
-        help="OpenCL devices, the chosen one and why, HLSL-to-OpenCL mapping",
-        formatter_class=fmt,
-        allow_abbrev=False,
-    ).set_defaults(func=cmd_info)
-    p = sub.add_parser(
-        "params", help="a scene's parameters: default, range, meaning", formatter_class=fmt, allow_abbrev=False
-    )
-    p.add_argument("scene")
-    p.set_defaults(func=cmd_params)
 
-    p = sub.add_parser(
-        "run", help="run a scene headless and write its state to .npz", formatter_class=fmt, allow_abbrev=False
-    )
+    def command(name: str, help: str, func, parents=()):
+        p = sub.add_parser(name, help=help, formatter_class=fmt, allow_abbrev=False, parents=list(parents))
+        p.set_defaults(func=func)
+        return p
+
+    command("list", "scenes and what they show", cmd_list)
+    command("info", "OpenCL devices, the chosen one and why, HLSL-to-OpenCL mapping", cmd_info, [device])
+    command("params", "a scene's parameters: default, range, meaning", cmd_params).add_argument("scene")
+
+    p = command("run", "run a scene headless and write its state to .npz", cmd_run, [device])
     p.add_argument("scene")
     p.add_argument("--steps", type=int, default=300, help="simulation steps")
     p.add_argument("--seed", type=int, default=0, help="random seed (same seed + device = same result)")
-    p.add_argument("--dt", type=float, default=None, help="time step in seconds (default: the scene's)")
+    p.add_argument("--dt", type=float, default=None, help="time step in seconds (default: the scene's own)")
     p.add_argument(
         "--set", action="extend", nargs="+", metavar="NAME=VALUE", help="override parameters (see `ugpcl params`)"
     )
@@ -275,27 +396,52 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--png", default=None, help="also render the final state to this PNG (offscreen, EGL)")
     p.add_argument("--png-size", default="800x600", help="PNG size WxH")
     p.add_argument("--mesh", default=None, help="export the scene's geometry (.obj/.ply) where it makes one")
-    p.set_defaults(func=cmd_run)
 
-    p = sub.add_parser("bench", help="time scenes and print throughput tables", formatter_class=fmt, allow_abbrev=False)
-    p.add_argument("scene", nargs="*", help="chapter stems (default: all)")
-    p.add_argument("--all", action="store_true", help="every chapter that has a bench")
+    p = command("bench", "time scenes and print throughput tables", cmd_bench, [device])
+    p.add_argument("scene", nargs="*", help="'launch' or chapter stems (none: all)")
+    p.add_argument("--all", action="store_true", help="every bench")
     p.add_argument("--size", type=int, nargs="+", default=None, help="problem sizes (default: the chapter's)")
-    p.set_defaults(func=cmd_bench)
     return parser
+
+
+def report(prog: str, err: BaseException) -> str:
+    """One line for an error that ends a run: its message's first line, with the exception's kind where the
+    message alone would not say what failed."""
+    text = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+    if isinstance(err, cl.Error | MemoryError):
+        text = f"{type(err).__name__}: {text}"
+    return f"{prog}: error: {text}"
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return args.func(args)
-    except (UsageError, ValueError) as err:
+        code = args.func(args)
+        sys.stdout.flush()  # a closed pipe shows here, inside the try, rather than at exit
+        return code
+    except UsageError as err:
         print(f"ugpcl: error: {err}", file=sys.stderr)
         return USAGE_ERROR
     except (DeviceError, BuildError) as err:
         print(f"ugpcl: {err}", file=sys.stderr)
         return RUNTIME_ERROR
+    except (ValueError, RuntimeError, cl.Error, OSError, MemoryError) as err:
+        if isinstance(err, BrokenPipeError):
+            return quiet_broken_pipe()
+        print(report("ugpcl", err), file=sys.stderr)
+        return RUNTIME_ERROR
+    except KeyboardInterrupt:
+        print("ugpcl: interrupted", file=sys.stderr)
+        return INTERRUPTED
+
+
+def quiet_broken_pipe() -> int:
+    """The reader of our stdout went away (``ugpcl params boids | head -1``): stop quietly. stdout is pointed at
+    /dev/null so that Python's flush at exit does not raise again."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    return 0
 
 
 if __name__ == "__main__":

@@ -104,50 +104,45 @@ def choose_device(wanted: str | None = None) -> tuple[cl.Device, str]:
 # {{{ the one launch path
 
 
-def _same_arg(old, new) -> bool:
-    """Whether ``new`` would set the same kernel argument as ``old`` did (so it need not be set again)."""
-    if old is new:  # the same buffer object (or None), the common case
-        return True
-    if type(old) is not type(new):
-        return False
-    if isinstance(new, np.generic):
-        return bool(old == new)  # NaN != NaN: re-set, harmless
-    if isinstance(new, cl.LocalMemory):
-        return old.size == new.size
-    return False
-
-
 class Kernel:
     """One kernel of a built program, launched on the runtime's queue: ``kernel(global_size, local_size, *args)``.
 
     Every chapter launches through this. PyOpenCL's ``cl_kernel(queue, gsize, lsize, *args)`` sets every argument
-    on every call (about 54 us of host time per launch on an H100, against about 9 us for a bare
-    ``enqueue_nd_range_kernel``; ``ugpcl bench launch`` measures both). Here the arguments of the last launch are
-    kept, only those that changed are set again (a scalar such as dt, the two buffers of a ping-pong pair after a
-    swap), and the kernel is enqueued with ``enqueue_nd_range_kernel``. Arguments are numpy scalars (``np.int32``,
-    ``np.float32``, ``cltypes`` vectors), ``cl.Buffer``, ``pyopencl.array.Array`` (its buffer is passed),
-    ``cl.LocalMemory`` or None (a null buffer).
+    through its generic path on every call (about 54 us of host time per launch on an H100, 50 us on PoCL, against
+    9 us and 3 us for a bare ``enqueue_nd_range_kernel``; ``ugpcl bench launch`` measures all three). Here a buffer
+    argument is set only when a different buffer is passed (after a ping-pong swap, a reset), numpy scalars are set
+    from their bytes (0.4 us each: cheaper than comparing them with the last value), and the kernel is enqueued
+    with ``enqueue_nd_range_kernel``. Arguments are numpy scalars (``np.int32``, ``np.float32``, ``cltypes``
+    vectors), ``cl.Buffer``, ``pyopencl.array.Array`` (its buffer is passed), ``cl.LocalMemory`` or None.
     """
 
     def __init__(self, runtime: Runtime, kernel: cl.Kernel, name: str):
         self.runtime, self.cl, self.name = runtime, kernel, name
         self.num_args = kernel.num_args
-        self._args: list = [_UNSET] * self.num_args
+        self._buffers: list = [_UNSET] * self.num_args  # the buffer (or None) each argument was last set to
+        # A numpy scalar through the public set_arg costs ~9 us (PyOpenCL's generic argument path); its bytes
+        # through _set_arg_buf, which PyOpenCL's own generated invokers use, ~0.4 us.
+        self._set_bytes = getattr(kernel, "_set_arg_buf", kernel.set_arg)
 
     def __call__(self, global_size, local_size, *args) -> cl.Event:
         if len(args) != self.num_args:
             raise TypeError(f"{self.name} takes {self.num_args} arguments, got {len(args)}")
-        kept = self._args
+        buffers = self._buffers
         for i, arg in enumerate(args):
+            if isinstance(arg, np.generic):
+                self._set_bytes(i, arg)
+                continue
             if isinstance(arg, cla.Array):
                 arg = arg.base_data if arg.offset == 0 else arg.data
-            elif isinstance(arg, int | float):  # a Python number has no OpenCL width: say which one
+            elif isinstance(arg, int | float):  # a Python number has no OpenCL width: say which argument
                 raise TypeError(f"{self.name} argument {i}: pass a numpy scalar (np.int32, np.float32), got {arg!r}")
-            if not _same_arg(kept[i], arg):
+            if arg is not buffers[i] or isinstance(arg, cl.LocalMemory):
                 self.cl.set_arg(i, arg)
-                kept[i] = arg
-        global_size = (global_size,) if isinstance(global_size, int) else tuple(global_size)
-        local_size = (local_size,) if isinstance(local_size, int) else local_size
+                buffers[i] = arg
+        if isinstance(global_size, int):
+            global_size = (global_size,)
+        if isinstance(local_size, int):
+            local_size = (local_size,)
         return cl.enqueue_nd_range_kernel(self.runtime.queue, self.cl, global_size, local_size)
 
     def over(self, n: int, group_size: int, *args) -> cl.Event | None:

@@ -213,6 +213,8 @@ class Simulation:
     """Fixed step for headless runs (the book uses Time.deltaTime)."""
     history: ClassVar[tuple[str, ...]] = ()
     """State arrays that ``--every K`` stacks into ``<name>_history``."""
+    scene: Scene | None = None
+    """The scene this simulation was created for (``Scene.create``): its name, defaults and view."""
 
     def __init__(self, runtime, params: Params | None = None, seed: int = 0):
         self.runtime = runtime
@@ -303,7 +305,9 @@ class Scene:
         return rows
 
     def create(self, runtime, seed: int = 0, **overrides) -> Simulation:
-        return self.simulation(runtime, self.params(**overrides), seed)
+        sim = self.simulation(runtime, self.params(**overrides), seed)
+        sim.scene = self
+        return sim
 
 
 # }}}

@@ -7,6 +7,7 @@ Shared keys live in SHARED_KEYS; a scene's own keys in its View's ``keys`` table
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -14,9 +15,8 @@ from pathlib import Path
 import moderngl
 import moderngl_window as mglw
 
-from ugpcl.cli import UsageError, parse_sets
+from ugpcl.cli import HelpFormatter, UsageError, parse_sets, parse_size, quiet_broken_pipe, scene_named
 from ugpcl.runtime import BuildError, DeviceError, Runtime
-from ugpcl.scenes import get
 
 from .gl import TextOverlay, read_pixels, save_png
 from .views import Key, View, create_view, view_class
@@ -198,35 +198,47 @@ class ViewerWindow(mglw.WindowConfig):
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="ugpcl-view",
-        description="Watch a scene in a window.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
-        allow_abbrev=False,
+        prog="ugpcl-view", description="Watch a scene in a window.", formatter_class=HelpFormatter, allow_abbrev=False
     )
     parser.add_argument("scene")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seed", type=int, default=0, help="random seed")
     parser.add_argument("--set", action="extend", nargs="+", metavar="NAME=VALUE", help="override parameters")
     parser.add_argument("--size", default="1280x720", help="window size WxH")
+    parser.add_argument("--device", default=None, metavar="NAME", help="OpenCL device (as ugpcl run --device)")
     parser.add_argument("--keys", action="store_true", help="print the scene's key table (Markdown) and exit")
     args = parser.parse_args(argv)
     try:
-        scene = get(args.scene)
+        scene = scene_named(args.scene)
         if args.keys:
             print(keys_markdown(scene))
+            sys.stdout.flush()
             return 0
         params = scene.params(**parse_sets(scene, args.set or []))
-        width, height = (int(v) for v in args.size.lower().split("x"))
-        runtime = Runtime()  # OpenCL before the GL window: see ugpcl.runtime.all_devices
+        width, height = parse_size(args.size, "--size")
+        if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+            raise NoDisplay(
+                "no display to open a window on (DISPLAY is not set): run it in a desktop session or "
+                f"under xvfb-run, or render pictures with `ugpcl run {scene.name} --png out.png`"
+            )
+        runtime = Runtime(args.device)  # OpenCL before the GL window: see ugpcl.runtime.all_devices
         ViewerWindow.launch = {"scene": scene, "params": params, "seed": args.seed, "runtime": runtime}
         # moderngl-window parses its own flags from sys.argv unless given a (non-empty) list of them
         mglw.run_window_config(ViewerWindow, args=["--size", f"{width}x{height}"])
     except (UsageError, ValueError) as err:
         print(f"ugpcl-view: error: {err}", file=sys.stderr)
         return 2
-    except (DeviceError, BuildError) as err:
+    except BrokenPipeError:
+        return quiet_broken_pipe()
+    except (NoDisplay, DeviceError, BuildError) as err:
         print(f"ugpcl-view: {err}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:
+        return 130
     return 0
+
+
+class NoDisplay(RuntimeError):
+    """There is no screen to open a window on."""
 
 
 if __name__ == "__main__":

@@ -62,6 +62,10 @@ def read_ply(path) -> tuple[np.ndarray, np.ndarray]:
     return vertices.copy(), faces.copy()
 
 
+MESH_SUFFIXES = (".obj", ".ply")
+"""The formats ``write_mesh`` writes, by file extension (``--mesh``)."""
+
+
 def write_mesh(path, vertices, faces=None, normals=None, lines=None) -> None:
     """By extension: ``.obj`` (triangles and/or lines) or ``.ply`` (triangles)."""
     suffix = Path(path).suffix.lower()

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import importlib
 import pkgutil
+import sys
 from functools import cache
 from types import ModuleType
 
@@ -36,3 +37,15 @@ def get(name: str) -> Scene:
         return scenes()[name]
     except KeyError:
         raise ValueError(f"unknown scene {name!r}; valid: {', '.join(scenes())}") from None
+
+
+class _CallableRegistry(ModuleType):
+    """This module, callable: ``ugpcl.scenes()`` is the public list of scenes (the package ``ugpcl.scenes`` and the
+    function could not otherwise share the name)."""
+
+    def __call__(self) -> dict[str, str]:
+        """{scene name: what you see}, for ``ugpcl.create``."""
+        return {name: scene.summary for name, scene in scenes().items()}
+
+
+sys.modules[__name__].__class__ = _CallableRegistry
