@@ -12,7 +12,7 @@ STAMP := $(VENV)/.installed
 SYSTEM_PACKAGES := pocl-opencl-icd ocl-icd-libopencl1 libegl1 libegl-mesa0 libgl1-mesa-dri xvfb xdotool
 
 .DEFAULT_GOAL := help
-.PHONY: help system-deps venv run test test-oclgrind bench view png docs lint clean
+.PHONY: help system-deps venv run test test-oclgrind test-wheel bench view png docs lint clean
 
 help: ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-14s %s\n", $$1, $$2}'
@@ -44,6 +44,9 @@ test: $(STAMP) ## the test suite on PoCL (CPU)
 test-oclgrind: $(STAMP) ## every kernel on the Oclgrind simulator: data races, out-of-bounds access
 	OCLGRIND_DATA_RACES=1 $(BIN)/pytest -m oclgrind -q
 
+test-wheel: $(STAMP) ## build the wheel, install it in a fresh venv outside the checkout, run scenes from there
+	bash .ci/wheel-check
+
 bench: $(STAMP) ## benchmark tables for every chapter on the chosen device
 	$(BIN)/ugpcl bench --all
 
@@ -61,4 +64,4 @@ lint: $(STAMP) ## ruff check + format check
 	$(BIN)/ruff format --check .
 
 clean: ## remove the virtualenv and outputs
-	rm -rf $(VENV) out .pytest_cache .ruff_cache *.egg-info
+	rm -rf $(VENV) out build dist .pytest_cache .ruff_cache *.egg-info

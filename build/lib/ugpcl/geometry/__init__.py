@@ -1,1 +1,0 @@
-"""CPU-side geometry: mesh exporters and other algorithms that run on the host."""

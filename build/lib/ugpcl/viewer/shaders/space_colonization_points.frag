@@ -1,8 +1,0 @@
-#version 430 core
-// Attraction points: one flat colour.
-uniform vec4 color;
-out vec4 f_color;
-
-void main() {
-    f_color = color;
-}
