@@ -1,4 +1,5 @@
-// boids.cl: Unity Graphics Programming vol.1 ch.3, "Boids simulation on the GPU" (spec 03).
+// boids.cl: Unity Graphics Programming vol.1 ch.3, "Boids simulation on the GPU"
+// (docs/chapters/03-boids.md).
 // Kernels, in host call order per step:
 //   1. ForceCS        boid_data -> boid_force: separation/alignment/cohesion against all n boids, streamed through
 //                     __local tiles of SIMULATION_BLOCK_SIZE boids (two barriers per tile, as the book)
@@ -11,7 +12,7 @@
 // Differences from the book: n need not be a multiple of the block size (padding work-items run every barrier
 // and write nothing); a rule whose average direction is the zero vector steers by 0 instead of normalize(0) = NaN.
 #include "boid.h"  // Boid {float4 velocity, position}: 32 B; numpy mirror BOID_DTYPE
-#include "grid.h"  // grid_cell_coord, grid_cell_id, grid_item: the sorted-key uniform grid
+#include "grid.h"  // grid_neighbours: the one neighbour-cell loop of the sorted-key uniform grid
 
 #ifndef SIMULATION_BLOCK_SIZE
 #error "build with -D SIMULATION_BLOCK_SIZE=<work-group size>"
@@ -119,18 +120,6 @@ __kernel void ForceCS_naive(const __global Boid* boid_data, __global float4* boi
     boid_force[p_id] = steering_force(&nb, &rules, me.position.xyz, me.velocity.xyz);
 }
 
-__kernel void IntegrateCS(__global Boid* boid_data, const __global float4* boid_force, int n, float dt,
-                          float max_speed, float4 wall_center, float4 wall_size, float avoid_wall_weight) {
-    const int p_id = get_global_id(0);
-    if (p_id >= n) return;
-    Boid b = boid_data[p_id];
-    float3 force = boid_force[p_id].xyz + avoid_wall(b.position.xyz, wall_center.xyz, wall_size.xyz) * avoid_wall_weight;
-    float3 velocity = limit(b.velocity.xyz + force * dt, max_speed);  // apply steering, then the speed limit
-    b.velocity = (float4)(velocity, 0.0f);
-    b.position = (float4)(b.position.xyz + velocity * dt, 0.0f);
-    boid_data[p_id] = b;
-}
-
 // Cell size >= every radius, so the 3x3x3 cells around a boid hold every neighbour that counts. Neighbours are
 // visited cell by cell (not in index order as above): sums agree with ForceCS up to float rounding.
 __kernel void ForceCS_grid(const __global Boid* boid_data, __global float4* boid_force, int n, RULES_ARGS,
@@ -141,16 +130,23 @@ __kernel void ForceCS_grid(const __global Boid* boid_data, __global float4* boid
     const Rules rules = RULES_INIT;
     const Boid me = boid_data[p_id];
     Neighbourhood nb = {(float3)(0.0f), (float3)(0.0f), (float3)(0.0f), 0, 0, 0};
-    const int4 home = grid_cell_coord(me.position.xyz, origin.xyz, cell_size, dims);
-    for (int dz = -1; dz <= 1; dz++)
-        for (int dy = -1; dy <= 1; dy++)
-            for (int dx = -1; dx <= 1; dx++) {
-                const int cell = grid_cell_id(home + (int4)(dx, dy, dz, 0), dims);
-                if (cell < 0) continue;  // beyond the grid's border
-                for (int k = cell_start[cell]; k < cell_end[cell]; k++) {
-                    const Boid other = boid_data[grid_item(keys[k])];
-                    meet(&nb, &rules, me.position.xyz, other.position.xyz, other.velocity.xyz);
-                }
-            }
+    GridNeighbours it = grid_neighbours(me.position.xyz, origin.xyz, cell_size, dims);
+    int j;
+    while (grid_next_neighbour(&it, keys, cell_start, cell_end, &j)) {
+        const Boid other = boid_data[j];
+        meet(&nb, &rules, me.position.xyz, other.position.xyz, other.velocity.xyz);
+    }
     boid_force[p_id] = steering_force(&nb, &rules, me.position.xyz, me.velocity.xyz);
+}
+
+__kernel void IntegrateCS(__global Boid* boid_data, const __global float4* boid_force, int n, float dt,
+                          float max_speed, float4 wall_center, float4 wall_size, float avoid_wall_weight) {
+    const int p_id = get_global_id(0);
+    if (p_id >= n) return;
+    Boid b = boid_data[p_id];
+    float3 force = boid_force[p_id].xyz + avoid_wall(b.position.xyz, wall_center.xyz, wall_size.xyz) * avoid_wall_weight;
+    float3 velocity = limit(b.velocity.xyz + force * dt, max_speed);  // apply steering, then the speed limit
+    b.velocity = (float4)(velocity, 0.0f);
+    b.position = (float4)(b.position.xyz + velocity * dt, 0.0f);
+    boid_data[p_id] = b;
 }

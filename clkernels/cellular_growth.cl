@@ -1,5 +1,6 @@
-// cellular_growth.cl: Unity Graphics Programming vol.3 ch.4, "GPU-Based Cellular Growth" (spec 11), the book's
-// CellularGrowth.compute. Host: ugpcl/scenes/cellular_growth.py (ParticleSimulation, Simulation).
+// cellular_growth.cl: Unity Graphics Programming vol.3 ch.4, "GPU-Based Cellular Growth"
+// (docs/chapters/11-cellular-growth.md), the book's CellularGrowth.compute.
+// Host: ugpcl/scenes/cellular_growth.py (ParticleSimulation, Simulation).
 //
 // Kernels, in host call order. `particles` is the Read buffer of the ping-pong pair; only UpdateParticles reads Read
 // and writes Write (then the host swaps). Pools are pool.h Append/Consume stacks of indices (host: ugpcl.buffers.Pool).
@@ -9,8 +10,9 @@
 //     EmitParticles           particle_pool (Consume) -> particles: emit_count cells on the unit circle around a point
 //   particle-only step (CellularGrowthParticleOnly.cs): [EmitParticles while emitting], UpdateParticles, Divide:
 //     UpdateParticles         Read -> Write: grow, all-pairs repulsion, drag and speed limit (ping-pong, no atomics)
+//     ParticleGridPoints      (search=grid) particles -> float2 points for ugpcl.grid.UniformGrid (dead slots parked
+//                             in one cell), then UpdateParticles_grid instead of UpdateParticles
 //     UpdateParticles_grid    the same, visiting only the 3x3 uniform-grid cells around each cell (ugpcl, search=grid)
-//     ParticleGridPoints      particles -> float2 points for ugpcl.grid.UniformGrid (dead slots parked in one cell)
 //     GetDividableParticles   particles -> dividable (Append): live cells with radius >= 0.95 threshold
 //     DivideParticles         dividable, particle_pool (Consume) -> particles: parent and child of half size
 //   network step (CellularGrowth.cs): iterations x (UpdateEdges, SpringEdges, UpdateParticles), then Divide:
@@ -21,7 +23,9 @@
 //     DivideUnconnectedParticles  (when no edge is dividable) particles with no link -> child + edge
 //     DivideEdgesClosed       dividable, pools (Consume) -> particles, edges: child between a and b (ring), or a triangle
 //     DivideEdgesBranch       dividable, pools (Consume) -> particles, edges: child hung on the less-linked end (tree)
-//   R key: ResetParticles, ResetEdges (live -> dead, index appended back to its pool), then EmitParticles.
+//   R key (then EmitParticles):
+//     ResetParticles          particles -> particle_pool (Append): every live cell dies
+//     ResetEdges              edges -> edge_pool (Append): every live edge dies                         [network]
 //
 // Build defines: BOOK_TEXT = 1 selects the formulas printed in the book's text (linear growth, child threshold
 // lerp(1.25, 2), random offset radius * 0.25, no wobble); 0 (default) the repository's, which made the figures.
@@ -33,9 +37,10 @@
 // Races: the book runs the edge divisions in parallel and tolerates lost updates (marked RACE (book) below); with
 // divide_count = 1 every kernel is race-free. DivideUnconnectedParticles of the book also races (a work-item may read
 // the dead slot that another one is turning into a child); variant=fixed reads parents from a snapshot instead.
-#include "cellular_growth.h"  // Particle (32 B), Edge (20 B), nrand, random_point_on_circle, create
-#include "grid.h"             // grid_cell_coord, grid_cell_id, grid_item: the sorted-key uniform grid
-#include "pool.h"             // pool_append, pool_consume
+#include "cellular_growth.h"  // Particle (32 B), Edge (20 B), create
+#include "grid.h"             // grid_neighbours: the one neighbour-cell loop of the sorted-key uniform grid
+#include "pool.h"             // pool_append_index, pool_consume
+#include "random.h"           // nrand, random_point_on_circle (the book's Random.cginc)
 
 #ifndef BOOK_TEXT
 #error "build with -D BOOK_TEXT=0 (repository formulas) or 1 (the book's text)"
@@ -79,7 +84,7 @@ inline int consume_index(volatile __global int* counter, const __global int* ite
     return items[slot];
 }
 
-// {{{ particles
+// {{{ reset (both scenes)
 
 __kernel void InitParticles(__global Particle* particles, int count, volatile __global int* particle_pool_counter,
                             __global int* particle_pool) {
@@ -88,8 +93,19 @@ __kernel void InitParticles(__global Particle* particles, int count, volatile __
     Particle p = create();
     p.alive = 0u;  // every slot starts dead
     particles[idx] = p;
-    const int slot = pool_append(particle_pool_counter, count);  // old count = where this index goes
-    if (slot >= 0) particle_pool[slot] = idx;
+    pool_append_index(particle_pool_counter, particle_pool, count, idx);
+}
+
+__kernel void InitEdges(__global Edge* edges, int count, volatile __global int* edge_pool_counter,
+                        __global int* edge_pool) {
+    const int idx = get_global_id(0);
+    if (idx >= count) return;
+    Edge e;
+    e.a = e.b = 0;
+    e.fx = e.fy = 0.0f;
+    e.alive = 0u;
+    edges[idx] = e;
+    pool_append_index(edge_pool_counter, edge_pool, count, idx);
 }
 
 // Threads id < emit_count (the host passes min(emit_count, pool count)) each wake one dead slot.
@@ -106,6 +122,9 @@ __kernel void EmitParticles(__global Particle* particles, volatile __global int*
     c.radius = nrand((float2)(fid, fid) + (float2)(time, 0.0f));
     particles[idx] = c;
 }
+// }}}
+
+// {{{ particles: the particle-only step
 
 // Grow: the radius approaches the threshold.
 inline float grown_radius(Particle p, float dt, float grow) {
@@ -182,18 +201,13 @@ __kernel void UpdateParticles_grid(const __global Particle* particles_read, __gl
     Particle p = particles_read[idx];
     if (p.alive) {
         p.radius = grown_radius(p, dt, grow);
-        const int4 home = grid_cell_coord((float3)(p.position, 0.0f), origin.xyz, cell_size, dims);
-        for (int dy = -1; dy <= 1; dy++)
-            for (int dx = -1; dx <= 1; dx++) {
-                const int cell = grid_cell_id(home + (int4)(dx, dy, 0, 0), dims);
-                if (cell < 0) continue;  // beyond the grid's border
-                for (int k = cell_start[cell]; k < cell_end[cell]; k++) {
-                    const int i = grid_item(keys[k]);
-                    const Particle other = particles_read[i];
-                    if (i == idx || !other.alive) continue;
-                    repel(&p, idx, other, i, repulsion);
-                }
-            }
+        GridNeighbours it = grid_neighbours((float3)(p.position, 0.0f), origin.xyz, cell_size, dims);  // 2D: 3x3
+        int i;
+        while (grid_next_neighbour(&it, keys, cell_start, cell_end, &i)) {
+            const Particle other = particles_read[i];
+            if (i == idx || !other.alive) continue;
+            repel(&p, idx, other, i, repulsion);
+        }
         move(&p, dt, drag, limit);
     }
     particles[idx] = p;
@@ -208,8 +222,7 @@ __kernel void GetDividableParticles(const __global Particle* particles, int coun
     if (idx >= count) return;
     const Particle p = particles[idx];
     if (p.alive && dividable_particle(p)) {
-        const int slot = pool_append(dividable_counter, count);  // old count = where this index goes
-        if (slot >= 0) dividable[slot] = idx;
+        pool_append_index(dividable_counter, dividable, count, idx);
     }
 }
 
@@ -255,42 +268,9 @@ __kernel void DivideParticles(__global Particle* particles, volatile __global in
     const Globals g = {particles, particles, particle_pool_counter, particle_pool, 0, 0, 0, faults, time};
     divide_particle(&g, idx);
 }
-
-// R key (ugpcl; the compute file has it, the scripts never call it): every live cell dies and returns to the pool.
-__kernel void ResetParticles(__global Particle* particles, int count, volatile __global int* particle_pool_counter,
-                             __global int* particle_pool) {
-    const int idx = get_global_id(0);
-    if (idx >= count || !particles[idx].alive) return;
-    particles[idx].alive = 0u;
-    const int slot = pool_append(particle_pool_counter, count);  // old count = where this index goes
-    if (slot >= 0) particle_pool[slot] = idx;
-}
-
 // }}}
 
-// {{{ edges
-
-__kernel void InitEdges(__global Edge* edges, int count, volatile __global int* edge_pool_counter,
-                        __global int* edge_pool) {
-    const int idx = get_global_id(0);
-    if (idx >= count) return;
-    Edge e;
-    e.a = e.b = 0;
-    e.fx = e.fy = 0.0f;
-    e.alive = 0u;
-    edges[idx] = e;
-    const int slot = pool_append(edge_pool_counter, count);  // old count = where this index goes
-    if (slot >= 0) edge_pool[slot] = idx;
-}
-
-__kernel void ResetEdges(__global Edge* edges, int count, volatile __global int* edge_pool_counter,
-                         __global int* edge_pool) {
-    const int idx = get_global_id(0);
-    if (idx >= count || !edges[idx].alive) return;
-    edges[idx].alive = 0u;
-    const int slot = pool_append(edge_pool_counter, count);  // old count = where this index goes
-    if (slot >= 0) edge_pool[slot] = idx;
-}
+// {{{ edges: the network step
 
 // Book: the force that pulls (or pushes) a and b to the distance ra + rb, relative to it, times spring.
 __kernel void UpdateEdges(const __global Particle* particles, __global Edge* edges, int count, float spring) {
@@ -350,8 +330,7 @@ __kernel void GetDividableEdges(const __global Particle* particles, const __glob
     if (idx >= count) return;
     const Edge e = edges[idx];
     if (e.alive && dividable_edge(particles, e, max_link)) {
-        const int slot = pool_append(dividable_counter, count);  // old count = where this edge index goes
-        if (slot >= 0) dividable[slot] = idx;
+        pool_append_index(dividable_counter, dividable, count, idx);
     }
 }
 
@@ -459,6 +438,29 @@ __kernel void DivideEdgesBranch(__global Particle* particles, volatile __global 
     const Globals g = {particles, particles, particle_pool_counter, particle_pool, edges, edge_pool_counter,
                        edge_pool, faults,    time};
     divide_edge_branch(&g, idx);
+}
+
+// }}}
+
+// {{{ R key
+
+// The compute file has these two (ugpcl binds them to R; the book's scripts never call them).
+// Every live cell dies and returns to the particle pool.
+__kernel void ResetParticles(__global Particle* particles, int count, volatile __global int* particle_pool_counter,
+                             __global int* particle_pool) {
+    const int idx = get_global_id(0);
+    if (idx >= count || !particles[idx].alive) return;
+    particles[idx].alive = 0u;
+    pool_append_index(particle_pool_counter, particle_pool, count, idx);
+}
+
+// Every live edge dies and returns to the edge pool.
+__kernel void ResetEdges(__global Edge* edges, int count, volatile __global int* edge_pool_counter,
+                         __global int* edge_pool) {
+    const int idx = get_global_id(0);
+    if (idx >= count || !edges[idx].alive) return;
+    edges[idx].alive = 0u;
+    pool_append_index(edge_pool_counter, edge_pool, count, idx);
 }
 
 // }}}

@@ -1,4 +1,5 @@
-// compute_intro.cl: Unity Graphics Programming vol.1 ch.2, "Getting started with compute shaders" (spec 02).
+// compute_intro.cl: Unity Graphics Programming vol.1 ch.2, "Getting started with compute shaders"
+// (docs/chapters/02-compute-intro.md).
 //
 // HLSL -> OpenCL, as used throughout ugpcl:
 //   [numthreads(tx,ty,tz)]       __attribute__((reqd_work_group_size(tx,ty,tz)))
@@ -14,13 +15,15 @@
 // The book's two samples are two .compute files; here they are the two sections of this file, chosen with
 // -D SAMPLE=SAMPLE_ARRAY or SAMPLE_TEXTURE so that both keep the book's kernel names.
 // Kernels, in host call order:
-//   SimpleComputeShader_Array:    1. KernelFunction_A  intBuffer[local id] = local id * intValue
-//                                 2. KernelFunction_B  intBuffer[local id] += 1   (a race if > 1 group: the lesson)
-//                                    KernelFunction_B_atomic  the same with atomic_add: exactly +1 per group
-//   SimpleComputeShader_Texture:  1. KernelFunction_A  texel (x, y) = x / width   (horizontal gradient)
-//                                 2. KernelFunction_B  texel (x, y) = y / width   (vertical; the book divides y by the width)
-//                                    KernelFunction_A_1D  KernelFunction_A from a 1-D launch: x = id % W, y = id / W
-//                                    DispatchProbe        every work-item's group/local/global ids (any launch shape)
+//   -D SAMPLE=SAMPLE_ARRAY (SimpleComputeShader_Array.compute):
+//     1. KernelFunction_A         intBuffer[local id] = local id * intValue
+//     2. KernelFunction_B         intBuffer[local id] += 1   (a race if > 1 group: the lesson)
+//        KernelFunction_B_atomic  the same with atomic_add: exactly +1 per group
+//   -D SAMPLE=SAMPLE_TEXTURE (SimpleComputeShader_Texture.compute):
+//     1. KernelFunction_A         texel (x, y) = x / width   (horizontal gradient)
+//     2. KernelFunction_B         texel (x, y) = y / width   (vertical; the book divides y by the width)
+//        KernelFunction_A_1D      KernelFunction_A from a 1-D launch: x = id % W, y = id / W
+//        DispatchProbe            every work-item's group/local/global ids (any launch shape)
 // Build defines: SAMPLE; for the texture sample TX, TY (numthreads, book: 8, 8) and USE_IMAGES (1: image2d_t,
 // 0: a row-major uchar4 buffer for devices without images, rounding like write_imagef).
 #define SAMPLE_ARRAY 1

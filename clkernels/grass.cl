@@ -1,4 +1,5 @@
-// grass.cl: Unity Graphics Programming vol.1 ch.6, "Growing grass with geometry shaders" (spec 06).
+// grass.cl: Unity Graphics Programming vol.1 ch.6, "Growing grass with geometry shaders"
+// (docs/chapters/06-grass.md).
 // The chapter has no compute shader: both samples are vertex -> geometry -> fragment shaders, ported to GLSL in
 // viewer/shaders/grass.* and grass_pyramid.*. These kernels are the geometry stage re-done in OpenCL for headless
 // runs (.npz, meshes) and tests: one work-item per input triangle writes that triangle's fixed output slots (the

@@ -8,6 +8,7 @@
 //   3. GridClearCells       cell_start = cell_end = 0
 //   4. GridFindCellRanges   sorted keys -> cell_start, cell_end
 //   GridCountNeighbours     items within a radius, found through the grid (tests, and a template for chapters)
+//   GridListNeighbours      the items grid.h's neighbour loop visits around each item, in visiting order (tests)
 #include "grid.h"
 
 __kernel void GridHash(const __global float* items, int stride, int offset, int n, int padded,
@@ -62,19 +63,29 @@ __kernel void GridCountNeighbours(const __global float* items, int stride, int o
     if (i >= n) return;
     const __global float* p = items + (size_t)i * stride + offset;
     const float3 me = (float3)(p[0], p[1], dims.z > 1 ? p[2] : 0.0f);
-    const int4 home = grid_cell_coord(me, origin.xyz, cell_size, dims);
-    int found = 0;
-    for (int dz = -1; dz <= 1; dz++)
-        for (int dy = -1; dy <= 1; dy++)
-            for (int dx = -1; dx <= 1; dx++) {
-                const int cell = grid_cell_id(home + (int4)(dx, dy, dz, 0), dims);
-                if (cell < 0) continue;
-                for (int k = cell_start[cell]; k < cell_end[cell]; k++) {
-                    const __global float* q = items + (size_t)grid_item(keys[k]) * stride + offset;
-                    const float3 other = (float3)(q[0], q[1], dims.z > 1 ? q[2] : 0.0f);
-                    const float3 d = me - other;
-                    if (dot(d, d) <= radius * radius) found++;  // counts the item itself
-                }
-            }
+    GridNeighbours it = grid_neighbours(me, origin.xyz, cell_size, dims);
+    int found = 0, j;
+    while (grid_next_neighbour(&it, keys, cell_start, cell_end, &j)) {
+        const __global float* q = items + (size_t)j * stride + offset;
+        const float3 other = (float3)(q[0], q[1], dims.z > 1 ? q[2] : 0.0f);
+        const float3 d = me - other;
+        if (dot(d, d) <= radius * radius) found++;  // counts the item itself
+    }
     count[i] = found;
+}
+
+// The first `max_found` items the neighbour loop visits around item i, in the order it visits them, then -1s: the
+// order grid.h promises (cells in increasing id, a cell's items in increasing index), checked by tests/test_grid.py.
+__kernel void GridListNeighbours(const __global float* items, int stride, int offset, int n, float4 origin,
+                                 float cell_size, int4 dims, const __global ulong* keys, const __global int* cell_start,
+                                 const __global int* cell_end, int max_found, __global int* found) {
+    const int i = get_global_id(0);
+    if (i >= n) return;
+    const __global float* p = items + (size_t)i * stride + offset;
+    const float3 me = (float3)(p[0], p[1], dims.z > 1 ? p[2] : 0.0f);
+    __global int* out = found + (size_t)i * max_found;
+    GridNeighbours it = grid_neighbours(me, origin.xyz, cell_size, dims);
+    int count = 0, j;
+    while (count < max_found && grid_next_neighbour(&it, keys, cell_start, cell_end, &j)) out[count++] = j;
+    for (; count < max_found; count++) out[count] = -1;
 }

@@ -1,6 +1,7 @@
 // marching_cubes.cl: Unity Graphics Programming vol.1 ch.7, "Introduction to the Marching Cubes method starting
-// with atmosphere" (spec 07). The book runs everything in a geometry shader (one GS invocation per grid cell,
-// GPUMarchingCubesRenderMesh.shader); these kernels do the same work per cell for headless meshes.
+// with atmosphere" (docs/chapters/07-marching-cubes.md). The book runs everything in a geometry shader (one GS
+// invocation per grid cell, GPUMarchingCubesRenderMesh.shader); these kernels do the same work per cell for headless
+// meshes.
 // Kernels, in host call order per frame:
 //   1. mc_field              -> field[(N+1)^3]: the book's Sample(x, y, z) at every grid point (index x + (N+1)*(y +
 //                               (N+1)*z)), evaluated once instead of 8 times per cell as the GS does

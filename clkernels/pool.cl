@@ -7,8 +7,7 @@
 __kernel void AppendMultiples(volatile __global int* counter, __global int* items, int capacity, int n, int every) {
     int i = get_global_id(0);
     if (i >= n || i % every != 0) return;
-    int slot = pool_append(counter, capacity);
-    if (slot >= 0) items[slot] = i;
+    pool_append_index(counter, items, capacity, i);
 }
 
 __kernel void ConsumeInto(volatile __global int* counter, const __global int* items, __global int* out, int n) {

@@ -1,5 +1,6 @@
-// space_colonization.cl: Unity Graphics Programming vol.4 ch.1, "GPU-Based Space Colonization Algorithm" (spec 12),
-// the book's SpaceColonization.compute. Host: ugpcl/scenes/space_colonization.py (Simulation).
+// space_colonization.cl: Unity Graphics Programming vol.4 ch.1, "GPU-Based Space Colonization Algorithm"
+// (docs/chapters/12-space-colonization.md), the book's SpaceColonization.compute.
+// Host: ugpcl/scenes/space_colonization.py (Simulation).
 // Kernels, in host call order (reset: Setup, Seed, then one step; every step: Search .. Remove while the node pool
 // is not empty, then always Grow):
 //   1. Setup        all node slots -> node pool (Append), nodes[i].active = 0
@@ -25,9 +26,10 @@
 // Differences from the book: an attraction closer than MIN_DIRECTION to its node is skipped in Attract (the book
 // adds normalize(0) = NaN); `repeat_guard` (default off) stops a node emitting its last candidate again or one that
 // sits on the node itself.
-#include "grid.h"
-#include "pool.h"
-#include "space_colonization.h"
+#include "grid.h"                // grid_neighbours: the one neighbour-cell loop of the sorted-key uniform grid
+#include "pool.h"                // pool_append, pool_append_index, pool_consume
+#include "random.h"              // nrand (the book's Random.cginc): the node masses
+#include "space_colonization.h"  // Attraction, Node, Candidate, Edge; repeats
 
 // CreateNode: take a free slot and return a fresh active record for it (-1 when the pool is empty, which the host
 // rules out by never dispatching more consumers than free slots).
@@ -52,8 +54,7 @@ __kernel void Setup(__global Node* nodes, int node_count, volatile __global int*
                     __global int* node_pool) {
     const int i = get_global_id(0);
     if (i >= node_count) return;
-    const int slot = pool_append(node_pool_counter, node_count);  // old count = where index i goes
-    if (slot >= 0) node_pool[slot] = i;
+    pool_append_index(node_pool_counter, node_pool, node_count, i);
     nodes[i].active = 0u;
 }
 
@@ -213,23 +214,16 @@ __kernel void Search_grid(__global Attraction* attractions, int attraction_count
     attr.found = 0u;
     if (!attr.active) return;
     float min_dist = influence_distance;
-    const int4 home = grid_cell_coord(POSITION(attr), origin.xyz, cell_size, dims);
-    for (int dz = -1; dz <= 1; dz++)
-        for (int dy = -1; dy <= 1; dy++)
-            for (int dx = -1; dx <= 1; dx++) {
-                const int cell = grid_cell_id(home + (int4)(dx, dy, dz, 0), dims);
-                if (cell < 0) continue;  // outside the grid
-                for (int k = cell_start[cell]; k < cell_end[cell]; k++) {
-                    const int i = grid_item(keys[k]);
-                    const Node n = nodes[i];
-                    const float d = length(POSITION(attr) - POSITION(n));
-                    if (d < min_dist || (attr.found && d == min_dist && i < attr.nearest)) {
-                        min_dist = d;
-                        attr.nearest = i;
-                        attr.found = 1u;
-                    }
-                }
-            }
+    GridNeighbours it = grid_neighbours(POSITION(attr), origin.xyz, cell_size, dims);
+    int i;
+    while (grid_next_neighbour(&it, keys, cell_start, cell_end, &i)) {
+        const float d = length(POSITION(attr) - POSITION(nodes[i]));
+        if (d < min_dist || (attr.found && d == min_dist && i < attr.nearest)) {
+            min_dist = d;
+            attr.nearest = i;
+            attr.found = 1u;
+        }
+    }
     attractions[idx] = attr;
 }
 
@@ -246,15 +240,10 @@ __kernel void Attract_grid(const __global Attraction* attractions, const __globa
     if (!(n.active && n.t >= 1.0f)) return;
     float3 dir = (float3)(0.0f);
     int counter = 0;
-    const int4 home = grid_cell_coord(POSITION(n), origin.xyz, cell_size, dims);
-    for (int dz = -1; dz <= 1; dz++)
-        for (int dy = -1; dy <= 1; dy++)
-            for (int dx = -1; dx <= 1; dx++) {
-                const int cell = grid_cell_id(home + (int4)(dx, dy, dz, 0), dims);
-                if (cell < 0) continue;
-                for (int k = cell_start[cell]; k < cell_end[cell]; k++)
-                    attract_direction(attractions[grid_item(keys[k])], idx, POSITION(n), &dir, &counter);
-            }
+    GridNeighbours it = grid_neighbours(POSITION(n), origin.xyz, cell_size, dims);
+    int i;
+    while (grid_next_neighbour(&it, keys, cell_start, cell_end, &i))
+        attract_direction(attractions[i], idx, POSITION(n), &dir, &counter);
     emit_candidate(idx, POSITION(n), dir, counter, growth_distance, repeat_guard, last_candidate, candidate_counter,
                    candidates, candidate_capacity);
 }
@@ -265,21 +254,15 @@ __kernel void Remove_grid(__global Attraction* attractions, int attraction_count
     if (idx >= attraction_count) return;
     Attraction attr = attractions[idx];
     if (!attr.active) return;
-    const int4 home = grid_cell_coord(POSITION(attr), origin.xyz, cell_size, dims);
-    for (int dz = -1; dz <= 1; dz++)
-        for (int dy = -1; dy <= 1; dy++)
-            for (int dx = -1; dx <= 1; dx++) {
-                const int cell = grid_cell_id(home + (int4)(dx, dy, dz, 0), dims);
-                if (cell < 0) continue;
-                for (int k = cell_start[cell]; k < cell_end[cell]; k++) {
-                    const Node n = nodes[grid_item(keys[k])];
-                    if (distance(POSITION(attr), POSITION(n)) < kill_distance) {
-                        attr.active = 0u;
-                        attractions[idx] = attr;
-                        return;
-                    }
-                }
-            }
+    GridNeighbours it = grid_neighbours(POSITION(attr), origin.xyz, cell_size, dims);
+    int i;
+    while (grid_next_neighbour(&it, keys, cell_start, cell_end, &i)) {
+        if (distance(POSITION(attr), POSITION(nodes[i])) < kill_distance) {
+            attr.active = 0u;
+            attractions[idx] = attr;
+            return;
+        }
+    }
 }
 
 // }}}

@@ -1,6 +1,7 @@
-// space_colonization_skinned.cl: Unity Graphics Programming vol.4 ch.1, section 1.4 "Application" (spec 12): the
-// book's SkinnedSpaceColonization.compute. Growth runs on bind-space `position`; only Animate writes `animated`.
-// Host: ugpcl/scenes/space_colonization.py (SkinnedSimulation).
+// space_colonization_skinned.cl: Unity Graphics Programming vol.4 ch.1, section 1.4 "Application"
+// (docs/chapters/12-space-colonization.md): the book's SkinnedSpaceColonization.compute. Growth runs on bind-space
+// `position`; only Animate writes `animated`.
+// Host: ugpcl/scenes/space_colonization_skinned.py (Simulation).
 // Kernels, in host call order (construction: SetupSkin; reset: SetupAttractions, Setup, Seed, one step; every step:
 // Search .. Remove while the node pool is not empty, Grow, then Animate with the frame's bone matrices):
 //    1. SetupSkin         mesh vertices, their bones -> attractions.bone: the bone of the nearest mesh vertex
@@ -17,8 +18,9 @@
 // Matrices are numpy row-major float[16] per bone: y[r] = sum_c M[r][c] x[c] (Unity's own memory order is
 // column-major; the host converts).
 // Build defines: none. Atomics: the Append/Consume counters of pool.h only. Races: none (see space_colonization.cl).
-#include "pool.h"
-#include "space_colonization.h"
+#include "pool.h"                // pool_append, pool_append_index, pool_consume
+#include "random.h"              // nrand (the book's Random.cginc): the node masses
+#include "space_colonization.h"  // SkinnedAttraction, SkinnedNode, SkinnedCandidate, Edge
 
 inline int create_node(volatile __global int* node_pool_counter, const __global int* node_pool, SkinnedNode* node) {
     const int slot = pool_consume(node_pool_counter);  // old count - 1 = the top of the pool (LIFO)
@@ -61,8 +63,7 @@ __kernel void Setup(__global SkinnedNode* nodes, int node_count, volatile __glob
                     __global int* node_pool) {
     const int i = get_global_id(0);
     if (i >= node_count) return;
-    const int slot = pool_append(node_pool_counter, node_count);  // old count = where index i goes
-    if (slot >= 0) node_pool[slot] = i;
+    pool_append_index(node_pool_counter, node_pool, node_count, i);
     nodes[i].active = 0u;
 }
 

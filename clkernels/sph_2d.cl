@@ -1,14 +1,19 @@
-// sph_2d.cl: Unity Graphics Programming vol.1 ch.5, "Fluid simulation by the SPH method" (spec 05).
+// sph_2d.cl: Unity Graphics Programming vol.1 ch.5, "Fluid simulation by the SPH method"
+// (docs/chapters/05-sph-2d.md).
 // Weakly compressible SPH in 2D: Poly6 density, Tait pressure, Spiky pressure gradient, viscosity Laplacian,
-// penalty walls, symplectic Euler. Per sub-step the host runs (book: RunFluidSolver):
-//   1. DensityCS    particles_in -> density: sum over j != i within h of density_coef (h^2 - r^2)^3 (all pairs)
-//   2. PressureCS   density -> pressure: Tait, B max((rho / rho0)^7 - 1, 0)
-//   3. ForceCS      particles_in, density, pressure -> force (= acceleration): pressure + viscosity terms over j != i
-//   4. IntegrateCS  particles_in, force -> particles_out: mouse push, walls, gravity, v += dt a, x += dt v
+// penalty walls, symplectic Euler.
+// Kernels, in host call order per sub-step (book: RunFluidSolver):
+//   1. DensityCS       particles_in -> density: sum over j != i within h of density_coef (h^2 - r^2)^3 (all pairs)
+//      DensityCS_grid  the same sum over the particles in the 3x3 grid cells around particle i (search=grid)
+//   2. PressureCS      density -> pressure: Tait, B max((rho / rho0)^7 - 1, 0)
+//   3. ForceCS         particles_in, density, pressure -> force (= acceleration): pressure + viscosity over j != i
+//      ForceCS_grid    the same sums over the 3x3 grid cells around particle i (search=grid)
+//   4. IntegrateCS     particles_in, force -> particles_out: mouse push, walls, gravity, v += dt a, x += dt v
 //   then the host swaps particles_in and particles_out.
-// Grid variant (search=grid, spec 05 section 9): the host sorts the particles by cell with ugpcl.grid.UniformGrid
-// (grid.h; cell size >= h) before step 1, and DensityGridCS / ForceGridCS replace DensityCS / ForceCS: the same
-// per-pair maths over the 3x3 cells around a particle instead of all N. PressureCS and IntegrateCS are shared.
+// Grid variant (ugpcl, search=grid; docs/chapters/05-sph-2d.md): the host sorts the particles by cell with
+// ugpcl.grid.UniformGrid (grid.h; cell size >= h) before step 1, and the *_grid kernels replace DensityCS and
+// ForceCS: the same per-pair maths over the 3x3 cells around a particle instead of all N. PressureCS and
+// IntegrateCS are shared.
 // Build defines: none required (the book's THREAD_SIZE_X 1024 is the host's local size: no local memory, any size).
 // Every kernel guards i < n and loops over real particles only (j < n), never over the padding of the global size.
 // Differences from the book (all guard a division by zero that gives NaN there):
@@ -20,7 +25,7 @@
 //   - ForceCS divides by max(density, min_density), min_density = density_coef h^6 (the own Poly6 term the book's
 //     density leaves out). Inside the water (density ~ 8 against 0.41 in the scene) nothing changes; two spray
 //     particles of density ~ 0 no longer exchange velocity with a gain far above 1 per sub-step (a viscous blow-up).
-#include "grid.h"    // grid_cell_coord, grid_cell_id, grid_item: the shared uniform grid (ugpcl.grid)
+#include "grid.h"    // grid_neighbours: the one neighbour-cell loop of the shared uniform grid (ugpcl.grid)
 #include "sph_2d.h"  // FluidParticle {float2 position, velocity}: 16 B; numpy mirror PARTICLE_DTYPE
 
 #define TAIT_GAMMA 7               // book: pow(density / _RestDensity, 7) in CalculatePressure
@@ -117,25 +122,20 @@ __kernel void DensityCS(const __global FluidParticle* particles_in, __global flo
 }
 
 // The same sum over the particles in the 3x3 cells around P (cell size >= h: every neighbour within h is there).
-__kernel void DensityGridCS(const __global FluidParticle* particles_in, __global float* density, int n, float h,
-                            float density_coef, float4 origin, float cell_size, int4 dims,
-                            const __global ulong* keys, const __global int* cell_start, const __global int* cell_end) {
+__kernel void DensityCS_grid(const __global FluidParticle* particles_in, __global float* density, int n, float h,
+                             float density_coef, float4 origin, float cell_size, int4 dims,
+                             const __global ulong* keys, const __global int* cell_start, const __global int* cell_end) {
     const int P_ID = get_global_id(0);
     if (P_ID >= n) return;
     const float h_sq = h * h;
     const float2 P_position = particles_in[P_ID].position;
-    const int4 home = grid_cell_coord((float3)(P_position, 0.0f), origin.xyz, cell_size, dims);
+    GridNeighbours it = grid_neighbours((float3)(P_position, 0.0f), origin.xyz, cell_size, dims);  // 2D: 3x3 cells
     float sum = 0.0f;
-    for (int dy = -1; dy <= 1; dy++)
-        for (int dx = -1; dx <= 1; dx++) {  // 2D grid: dims.z == 1, one layer
-            const int cell = grid_cell_id(home + (int4)(dx, dy, 0, 0), dims);
-            if (cell < 0) continue;  // outside the grid
-            for (int k = cell_start[cell]; k < cell_end[cell]; k++) {
-                const int N_ID = grid_item(keys[k]);
-                if (N_ID == P_ID) continue;  // skip own ID (book)
-                sum += density_term(particles_in, N_ID, P_position, h_sq, density_coef);
-            }
-        }
+    int N_ID;
+    while (grid_next_neighbour(&it, keys, cell_start, cell_end, &N_ID)) {
+        if (N_ID == P_ID) continue;  // skip own ID (book)
+        sum += density_term(particles_in, N_ID, P_position, h_sq, density_coef);
+    }
     density[P_ID] = sum;
 }
 
@@ -170,29 +170,23 @@ __kernel void ForceCS(const __global FluidParticle* particles_in, const __global
     force[P_ID] = acceleration_of(&sums, &c, viscosity, density[P_ID]);  // book: _ParticlesForceBufferWrite.acceleration
 }
 
-__kernel void ForceGridCS(const __global FluidParticle* particles_in, const __global float* density,
-                          const __global float* pressure, __global float2* force, int n, float h,
-                          float grad_pressure_coef, float lap_viscosity_coef, float viscosity, float min_density,
-                          float4 origin,
-                          float cell_size, int4 dims, const __global ulong* keys, const __global int* cell_start,
-                          const __global int* cell_end) {
+__kernel void ForceCS_grid(const __global FluidParticle* particles_in, const __global float* density,
+                           const __global float* pressure, __global float2* force, int n, float h,
+                           float grad_pressure_coef, float lap_viscosity_coef, float viscosity, float min_density,
+                           float4 origin, float cell_size, int4 dims, const __global ulong* keys,
+                           const __global int* cell_start, const __global int* cell_end) {
     const int P_ID = get_global_id(0);
     if (P_ID >= n) return;
     const ForceCoefs c = {h, h * h, grad_pressure_coef, lap_viscosity_coef, min_density};
     const FluidParticle P = particles_in[P_ID];
     const float P_pressure = pressure[P_ID];
-    const int4 home = grid_cell_coord((float3)(P.position, 0.0f), origin.xyz, cell_size, dims);
+    GridNeighbours it = grid_neighbours((float3)(P.position, 0.0f), origin.xyz, cell_size, dims);  // 2D: 3x3 cells
     ForceSums sums = {(float2)(0.0f), (float2)(0.0f)};
-    for (int dy = -1; dy <= 1; dy++)
-        for (int dx = -1; dx <= 1; dx++) {  // 2D grid: dims.z == 1, one layer
-            const int cell = grid_cell_id(home + (int4)(dx, dy, 0, 0), dims);
-            if (cell < 0) continue;  // outside the grid
-            for (int k = cell_start[cell]; k < cell_end[cell]; k++) {
-                const int N_ID = grid_item(keys[k]);
-                if (N_ID == P_ID) continue;  // skip own ID
-                force_term(&sums, &c, particles_in, density, pressure, N_ID, P, P_pressure);
-            }
-        }
+    int N_ID;
+    while (grid_next_neighbour(&it, keys, cell_start, cell_end, &N_ID)) {
+        if (N_ID == P_ID) continue;  // skip own ID
+        force_term(&sums, &c, particles_in, density, pressure, N_ID, P, P_pressure);
+    }
     force[P_ID] = acceleration_of(&sums, &c, viscosity, density[P_ID]);
 }
 

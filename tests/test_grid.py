@@ -66,6 +66,74 @@ def test_neighbour_counts_equal_brute_force(runtime, dims3, seed):
     np.testing.assert_array_equal(counts, brute_force(data[:, 1:4] if dims3 else data[:, 1:3], radius))
 
 
+def list_neighbours(rt, grid: UniformGrid, items, n: int, stride: int, max_found: int) -> np.ndarray:
+    found = rt.empty((n, max_found), np.int32)
+    grid.program.kernel("GridListNeighbours").over(
+        n,
+        64,
+        items.data,
+        np.int32(stride),
+        np.int32(0),
+        np.int32(n),
+        *grid.geometry_args(),
+        *grid.search_args(),
+        np.int32(max_found),
+        found,
+    )
+    return found.get()
+
+
+def item_cells(grid: UniformGrid, n: int) -> np.ndarray:
+    """Each item's (clamped) cell, read from the sorted keys."""
+    keys = grid.sorted_keys()
+    cells = np.empty(n, np.int64)
+    cells[(keys & 0xFFFFFFFF).astype(np.int64)] = (keys >> 32).astype(np.int64)
+    return cells
+
+
+def visiting_order_reference(cells: np.ndarray, dims: tuple, i: int) -> list[int]:
+    """grid.h's promise, from the item cells alone: the 27 cells around item i's cell (9 when dims z == 1) that lie
+    inside the grid, in increasing id; the items of each in increasing index."""
+    nx, ny, nz = dims
+    home = cells[i]
+    hx, hy, hz = home % nx, home // nx % ny, home // (nx * ny)
+    order = []
+    for dz in (-1, 0, 1) if nz > 1 else (0,):
+        for dy in (-1, 0, 1):
+            for dx in (-1, 0, 1):
+                x, y, z = hx + dx, hy + dy, hz + dz
+                if 0 <= x < nx and 0 <= y < ny and 0 <= z < nz:
+                    order += np.flatnonzero(cells == (z * ny + y) * nx + x).tolist()
+    return order
+
+
+@pytest.mark.parametrize(
+    "lower, upper, cell_size",
+    [
+        ((-1, -1, -1), (1, 1, 1), 0.5),  # 4 x 4 x 4: interior, faces, edges and corners
+        ((-1, -1), (1, 1), 0.5),  # 2D, dims z = 1: the dz = 0 layer only
+        ((0, 0, 0), (1, 0.5, 3), 1.0),  # 1 x 1 x 3: every x and y neighbour is outside
+    ],
+)
+def test_neighbour_loop_visits_the_cells_around_in_increasing_id(runtime, seed, lower, upper, cell_size):
+    n = 300
+    rng = np.random.default_rng(seed)
+    points = np.zeros((n, 4), np.float32)
+    points[:, : len(lower)] = rng.uniform(np.array(lower) - 0.2, np.array(upper) + 0.2, (n, len(lower)))  # some outside
+    items = runtime.to_device(points)
+    grid = UniformGrid.covering(runtime, n, lower, upper, cell_size)
+    grid.build(items, n, stride=4)
+    cells = item_cells(grid, n)
+    found = list_neighbours(runtime, grid, items, n, 4, n + 1)
+    for i in range(n):
+        expected = visiting_order_reference(cells, grid.dims, i)
+        got = found[i][found[i] >= 0].tolist()
+        assert got == expected, (
+            f"item {i} (cell {cells[i]} of {grid.dims}): visited {got[:12]}..., expected {expected[:12]}..."
+        )
+        assert (found[i][len(got) :] == -1).all()
+
+
 def test_build_checks_its_input(runtime):
     grid = UniformGrid(runtime, 10, (0, 0, 0), 1.0, (4, 4, 4))
     with pytest.raises(ValueError, match="n must be in \\[0, 10\\], got 11"):
@@ -83,3 +151,6 @@ def test_grid_kernels_on_oclgrind(oclgrind, seed):
     grid.build(items, n, stride=4)
     counts = count_neighbours(oclgrind, grid, items, n, 4, 0, 0.34)
     np.testing.assert_array_equal(counts, brute_force(points[:, :3], 0.34))
+    found, cells = list_neighbours(oclgrind, grid, items, n, 4, n + 1), item_cells(grid, n)
+    for i in range(n):
+        assert found[i][found[i] >= 0].tolist() == visiting_order_reference(cells, grid.dims, i), i

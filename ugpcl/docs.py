@@ -23,9 +23,16 @@ BLOCK = re.compile(r"(<!-- BEGIN generated:([\w-]+)(?: (\w+))? -->\n)(.*?)(<!-- 
 
 
 def chapter_doc(scene) -> Path | None:
+    """The page of the scene's stem, else of its longest stem prefix: space_colonization_cpu and
+    space_colonization_skinned are documented on the space_colonization page."""
     chapters = ROOT / "docs" / "chapters"
-    matches = sorted({*chapters.glob(f"*-{scene.stem}.md"), *chapters.glob(f"*-{scene.stem.replace('_', '-')}.md")})
-    return matches[0] if matches else None
+    words = scene.stem.split("_")
+    for n in range(len(words), 0, -1):
+        stem = "_".join(words[:n])
+        matches = sorted({*chapters.glob(f"*-{stem}.md"), *chapters.glob(f"*-{stem.replace('_', '-')}.md")})
+        if matches:
+            return matches[0]
+    return None
 
 
 def markdown_table(rows: list[dict]) -> str:

@@ -2,7 +2,8 @@
 
 ``build()`` hashes each item's position to a cell, sorts (cell, index) keys with a bitonic network and records
 each cell's range of sorted keys. A chapter's neighbour kernel then visits the 3x3x3 (2D: 3x3) cells around a
-position instead of all items: exact whenever ``cell_size`` >= the search radius.
+position instead of all items, through grid.h's one neighbour loop (``grid_neighbours`` / ``grid_next_neighbour``):
+exact whenever ``cell_size`` >= the search radius.
 """
 
 from __future__ import annotations

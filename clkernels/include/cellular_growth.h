@@ -1,5 +1,6 @@
-// cellular_growth.h: the records and random helpers of Unity Graphics Programming vol.3 ch.4, "GPU-Based Cellular
-// Growth" (spec 11): Particle_t, Edge_t, nrand, random_point_on_circle and create() of CellularGrowth.compute.
+// cellular_growth.h: the records of Unity Graphics Programming vol.3 ch.4, "GPU-Based Cellular Growth"
+// (docs/chapters/11-cellular-growth.md): Particle_t, Edge_t and create() of CellularGrowth.compute (its nrand and
+// random_point_on_circle are in random.h).
 // Used by clkernels/cellular_growth.cl and by the layout probe of tests/test_cellular_growth.py.
 #ifndef UGPCL_CELLULAR_GROWTH_H
 #define UGPCL_CELLULAR_GROWTH_H
@@ -23,19 +24,6 @@ typedef struct {
     float fx, fy;  // @8 book: force (attraction a -> b, written by UpdateEdges)
     uint alive;    // @16
 } Edge;
-
-// Book (Random.cginc): nrand(uv) = frac(sin(dot(uv, (12.9898, 78.233))) * 43758.5453), in [0, 1). Its value for
-// large arguments depends on the device's sin (PoCL vs NVIDIA): compare random-driven results statistically.
-inline float nrand(float2 uv) {
-    const float x = sin(dot(uv, (float2)(12.9898f, 78.233f))) * 43758.5453f;
-    return x - floor(x);  // frac (OpenCL's fract needs a pointer argument)
-}
-
-// Book (repository): a point on the unit circle at angle nrand(uv) * 2 pi.
-inline float2 random_point_on_circle(float2 uv) {
-    const float theta = nrand(uv) * 2.0f * M_PI_F;
-    return (float2)(cos(theta), sin(theta));
-}
 
 // Book (repository): create() - a fresh live cell at the origin with radius = threshold = 1 and no links.
 inline Particle create(void) {

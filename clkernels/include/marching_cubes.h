@@ -1,4 +1,4 @@
-// marching_cubes.h: the triangle record of vol.1 ch.7's OpenCL path (spec 07 section 3).
+// marching_cubes.h: the triangle record of vol.1 ch.7's OpenCL path (docs/chapters/07-marching-cubes.md).
 // numpy mirror: ugpcl.scenes.marching_cubes.TRIANGLE_DTYPE (76 bytes; a test checks sizeof on the device).
 // Flat float arrays, never float3: an OpenCL float3 is 16 bytes, numpy's (3,) float32 is 12.
 #ifndef UGPCL_MARCHING_CUBES_H

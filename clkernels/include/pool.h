@@ -3,6 +3,7 @@
 //
 //   slot = pool_append(counter, capacity);  if (slot >= 0) items[slot] = x;    // HLSL: buf.Append(x)
 //   slot = pool_consume(counter);           if (slot >= 0) x = items[slot];    // HLSL: x = buf.Consume()
+//   pool_append_index(counter, items, capacity, i);                          // HLSL: buf.Append(i), i an int
 //
 // The host reads the count (the book's CopyCount) and never dispatches more consumers than there are items,
 // so pool_consume's empty branch is a safety net, not a code path. Do not append and consume the same pool in
@@ -32,6 +33,13 @@ inline int pool_consume(volatile __global int* counter) {
         return -1;
     }
     return old - 1;
+}
+
+// Append an int (an index pool, a list of indices): items[slot] = index in the slot pool_append reserved; nothing
+// when the pool is full (the refusal is counted in counter[POOL_REFUSED]).
+inline void pool_append_index(volatile __global int* counter, __global int* items, int capacity, int index) {
+    const int slot = pool_append(counter, capacity);  // old count = where this index goes, or -1: full
+    if (slot >= 0) items[slot] = index;
 }
 
 #endif

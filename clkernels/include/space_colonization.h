@@ -1,4 +1,5 @@
-// space_colonization.h: the records of Unity Graphics Programming vol.4 ch.1 (GPU space colonization, spec 12) and the
+// space_colonization.h: the records of Unity Graphics Programming vol.4 ch.1 (GPU space colonization,
+// docs/chapters/12-space-colonization.md) and the
 // helpers its two kernel files share (space_colonization.cl, space_colonization_skinned.cl).
 //
 // HLSL packs a float3 in a StructuredBuffer into 12 bytes; an OpenCL float3 is 16 bytes and 16-aligned. Every
@@ -64,20 +65,15 @@ typedef struct {
 #define POSITION(record) ((float3)((record).px, (record).py, (record).pz))
 
 // An attraction this close to its node gives no direction: normalize(0) is NaN (the book's seeds sit on attraction
-// points, so its first Attract makes one NaN candidate per seed). Such attractions are skipped (spec 12 section 10).
+// points, so its first Attract makes one NaN candidate per seed). Such attractions are skipped
+// (docs/chapters/12-space-colonization.md, "What differs from the book").
 #define MIN_DIRECTION 1e-12f
-
-// HLSL nrand (the book's Random.cginc): frac(sin(dot(uv, (12.9898, 78.233))) * 43758.5453). Its value depends on
-// the device's sin at large arguments, so masses are compared statistically, never bitwise.
-inline float nrand(float2 uv) {
-    const float x = sin(dot(uv, (float2)(12.9898f, 78.233f))) * 43758.5453f;
-    return x - floor(x);
-}
 
 // The repeat guard (ugpcl, off by default): true when `candidate` repeats the last one this node emitted, or sits on
 // the node itself. Opposite attractions cancel, the mean direction is ~0 and the candidate lands on its parent; the
 // copy is never closer to the attractions, so either the parent emits it again every step, or (the copy winning
-// the distance tie) the copy does, and the next copy, ... (spec 12 section 10). `last.w` is 1 once the node emitted.
+// the distance tie) the copy does, and the next copy, ... (docs/chapters/12-space-colonization.md).
+// `last.w` is 1 once the node emitted.
 inline bool repeats(float4 last, float3 node, float3 candidate, float growth_distance) {
     const float tolerance2 = (1e-3f * growth_distance) * (1e-3f * growth_distance);
     const float3 d_last = candidate - last.xyz;

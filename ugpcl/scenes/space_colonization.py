@@ -1,39 +1,44 @@
-"""GPU-based space colonization: a tree grows through a cloud of attraction points (vol.4 ch.1; spec 12).
+"""GPU space colonization: a tree grows through a sphere of attraction points (Unity Graphics Programming vol.4 ch.1,
+"GPU-Based Space Colonization Algorithm": the Line and TubularEdge scenes; docs/chapters/12-space-colonization.md).
 
 Kernel order (clkernels/space_colonization.cl): ``reset`` runs Setup (every node slot into the pool), Seed
-(``seed_count`` nodes on random attraction points) and one step; each ``step`` runs, while the node pool is not
-empty, Search (nearest node of every attraction within the influence distance), Attract (every grown node pulled by
-an attraction proposes a candidate one growth distance along the mean unit vector), Connect (candidates become
-nodes joined by edges; never more than the free slots), Remove (attractions within the kill distance of a node die)
-and reads the pool and edge counts back; then always Grow (t += dt * growth_speed * mass). A node branches only once
-t reaches 1, which is also what animates the edges in the view.
+(``seed_count`` nodes on random attraction points) and one step; each ``step`` runs, while the node pool has free
+slots, Search (nearest node of every attraction within the influence distance), Attract (every grown node pulled by
+an attraction proposes a candidate one growth distance along the mean unit vector), Connect (candidates become nodes
+joined by edges; never more than the free slots), Remove (attractions within the kill distance of a node die) and
+reads the pool and edge counts back; then always Grow (t += dt * growth_speed * mass). A node branches only once t
+reaches 1, which is also what animates the edges in the view.
 
-Scenes: ``space_colonization`` and ``space_colonization_tubes`` (the book's Line and TubularEdge scenes),
-``space_colonization_skinned`` (the book's skinning application, on a procedural figure: SkinnedSimulation,
-clkernels/space_colonization_skinned.cl) and ``space_colonization_cpu`` (the blog's CPU algorithm,
-ugpcl.geometry.space_colonization_ref.BlogTree, which with ColonizationRef is also the tests' oracle).
+Scenes: ``space_colonization`` (Line scene) and ``space_colonization_tubes`` (TubularEdge scene). The chapter's
+other stems: ``space_colonization_skinned`` (the book's section 1.4 application, which reuses ``GrowthParams`` and
+``GrowthSimulation`` from here) and ``space_colonization_cpu`` (the blog's CPU algorithm).
+
+Node slots, one rule on the host: ``capacity`` slots in all; ``free_slots`` of them wait in the node pool (the book's
+``nodesCount``, read back with CopyCount); ``live_nodes = capacity - free_slots`` are active; ``live_edges`` edges
+exist. The ``.npz`` keeps the chapter page's names: ``nodes_free`` (free slots), ``node_count`` (live nodes),
+``edges_count``.
 
 Differences from the book: attractions closer than 1e-12 to their node are skipped in Attract (the book's seeds sit
-on attraction points and make NaN nodes); ``repeat_guard`` (off by default) stops a node emitting its last candidate
-again or one on itself (cancelling attractions otherwise drain the pool with copies); ``search=grid`` replaces the
-all-pairs loops of Search, Attract and Remove by uniform-grid lookups with the same results; the attractions are
-stored sorted by grid cell (a permutation of the book's cloud) so that both modes sum Attract's unit vectors in the
-same order; the book's Connect rewrites the parent unchanged (left out).
+on attraction points and make NaN nodes); ``repeat_guard`` (on by default; ``--set repeat_guard=false`` is the book)
+stops a node emitting its last candidate again or one on itself (cancelling attractions otherwise drain the pool with
+zero-length copies); ``search=grid`` replaces the all-pairs loops of Search, Attract and Remove by uniform-grid
+lookups with the same results; the attractions are stored sorted by grid cell (a permutation of the book's cloud) so
+that both modes sum Attract's unit vectors in the same order; the book's Connect rewrites the parent unchanged (left
+out).
 """
 
 from __future__ import annotations
 
-import functools
 import math
 import time
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
 from ..buffers import Pool
-from ..geometry import skinned_figure
 from ..geometry import space_colonization_ref as ref
 from ..geometry.mesh_io import write_mesh
 from ..grid import LOCAL_SIZE as GRID_LOCAL_SIZE
@@ -62,15 +67,14 @@ LOCAL_SIZE = 128
 """Work-group size of every kernel (book: [numthreads(128,1,1)])."""
 
 
-# {{{ plain scene
+# {{{ what the sphere and the skinned scenes share
 
 
 @dataclass(frozen=True)
-class Params(BaseParams):
-    side: int = param(28, 4, 160)
-    """Grid resolution of the attraction cloud: side^3 grid points, those inside the sphere kept (book: count)."""
-    cloud: str = param("sphere", choices=("sphere", "hemisphere", "box"))
-    """Shape of the attraction cloud: the book's sphere, the blog's hemisphere generator, or a filled cube."""
+class GrowthParams(BaseParams):
+    """The book's SpaceColonization component, as the sphere and the skinned scenes share it. Distances are in units
+    of the scene's ``unit`` (book: unitDistance)."""
+
     seed_count: int = param(6, 1, 256)
     """Initial nodes, placed on random attraction points (book: seedCount)."""
     influence_distance: float = param(1.14, 0.0, lo_open=True, live=True)
@@ -89,26 +93,319 @@ class Params(BaseParams):
     """Run the algorithm every `frame` steps (book: frame)."""
     iterations: int = param(1, 1, 5, live=True)
     """Algorithm steps per run, each with the same dt (book: iterations)."""
-    repeat_guard: bool = param(False, live=True)
-    """A node does not emit the candidate it emitted last time (ugpcl; off = the book, whose cancelling
-    attractions can drain the node pool with copies of one node)."""
+    repeat_guard: bool = param(True, live=True)
+    """A node does not emit the candidate it emitted last time, nor one that sits on the node (ugpcl, on by
+    default). false = the book: cancelling attractions put a candidate on its node, and zero-length copies of that
+    node drain the pool."""
     node_capacity: int = param(0, 0, 1 << 24)
     """Node slots (0: one per attraction, as the book). Fewer slots show the pool running dry."""
+    tube_radius: float = param(0.0055, 0.0, lo_open=True, live=True)
+    """Tube radius of the view and of --mesh, in the attraction cloud's units (book: _Thickness; 0.033 at object
+    scale 6 in the TubularEdge scene, 0.01 on the skinned scene's 3.4-unit character; both scaled to ours)."""
+    mesh_kind: str = param("tubes", choices=("tubes", "lines"), live=True)
+    """What --mesh writes: closed capsules per grown edge, or OBJ polylines (`l`)."""
+
+    def check(self) -> None:
+        if self.mass_min > self.mass_max:
+            raise ValueError(f"mass_min must be <= mass_max, got {self.mass_min} > {self.mass_max}")
+
+
+class GrowthSimulation(BaseSimulation):
+    """The host side of the book's Step that the sphere and the skinned scenes share: node, candidate and edge
+    pools, Setup, Search, Attract, Connect, Remove, Grow, the state and the mesh. A scene's ``_reset`` builds its
+    program, attraction buffer and ``unit``, calls ``_allocate_nodes`` and ends with ``_start(seeds)``."""
+
+    Params = GrowthParams
+    history = ("node_count", "active_attraction")
+    attraction_dtype: ClassVar[np.dtype] = ATTRACTION_DTYPE
+    node_dtype: ClassVar[np.dtype] = NODE_DTYPE
+    candidate_dtype: ClassVar[np.dtype] = CANDIDATE_DTYPE
+    drawn_position: ClassVar[str] = "position"
+    """The node field the view draws and --mesh exports (the skinned scene: ``animated``)."""
+
+    program: object
+    unit: float
+    """Distance unit of every *_distance parameter (book: unitDistance)."""
+    attractions: object
+    attraction_count: int
+    capacity: int
+    """Node slots in all."""
+    free_slots: int
+    """Node slots waiting in the pool, as last read (book: nodesCount, CopyNodesCount)."""
+    live_edges: int
+    """Edges made so far, as last read (book: edgesCount, CopyEdgesCount)."""
+
+    @property
+    def live_nodes(self) -> int:
+        """Active nodes: the slots not in the pool."""
+        return self.capacity - self.free_slots
+
+    # {{{ setup
+
+    def _allocate_nodes(self, capacity: int) -> None:
+        rt = self.runtime
+        self.capacity = int(capacity)
+        self.nodes = rt.zeros(self.capacity, self.node_dtype)
+        self.node_pool = Pool(rt, self.capacity, np.int32, "node_pool")
+        self.candidates = Pool(rt, self.capacity, self.candidate_dtype, "candidates")  # <= one per node per step
+        self.edges = Pool(rt, 2 * self.capacity, EDGE_DTYPE, "edges")  # book: count * 2
+        self.last_candidate = rt.zeros(self.capacity, cltypes.float4)  # repeat_guard: (last candidate, emitted)
+
+    def _start(self, seeds: np.ndarray) -> None:
+        """Setup, Seed, then the book's Start ends with Step(0): the seeds branch at once."""
+        self.setup()
+        self.seed_nodes(seeds)
+        self.free_slots = self.node_pool.count()  # book: CopyNodesCount (A - seeds)
+        self.live_edges = 0
+        self.frame_index = 0
+        self.last_growth_step, self.last_connect = 0, 0
+        self.book_step(0.0)
+
+    def _launch(self, name: str, n: int, *args) -> None:
+        self.program.kernel(name).over(n, LOCAL_SIZE, *args)
+
+    def _nodes_changed(self) -> None:
+        """Called when node records change (the sphere scene's node grid goes stale)."""
+
+    def _seed_lookup_args(self) -> tuple:
+        """Seed's arguments between (seeds, seed_count) and nodes: none here; the skinned Seed reads the attractions."""
+        return ()
+
+    # }}}
+
+    # {{{ kernels, in the book's order
+
+    def setup(self) -> None:
+        """Setup: every node slot into the pool, every node inactive."""
+        self.node_pool.set_count(0)
+        self._launch(
+            "Setup",
+            self.capacity,
+            self.nodes.data,
+            np.int32(self.capacity),
+            self.node_pool.counter.data,
+            self.node_pool.items.data,
+        )
+
+    def seed_nodes(self, seeds: np.ndarray) -> None:
+        """Seed (named so because ``seed`` is the random seed): one grown node per seed position."""
+        p = self.params
+        seeds = np.ascontiguousarray(seeds, np.float32).reshape(-1, 3)
+        buffer = self.runtime.to_device(seeds.reshape(-1))
+        n = min(len(seeds), self.node_pool.count())  # never more consumers than free slots
+        self._launch(
+            "Seed",
+            n,
+            buffer.data,
+            np.int32(n),
+            *self._seed_lookup_args(),
+            self.nodes.data,
+            self.node_pool.counter.data,
+            self.node_pool.items.data,
+            np.float32(p.mass_min),
+            np.float32(p.mass_max),
+        )
+        self._nodes_changed()
+
+    def search(self) -> None:
+        """Search: nearest active node within the influence distance of every active attraction."""
+        self._attractions_to_nodes("Search", self.params.influence_distance * self.unit)
+
+    def attract(self) -> None:
+        """Attract: the candidate counter is cleared, then every grown, pulled node appends one candidate."""
+        self.candidates.set_count(0)
+        self._launch(
+            "Attract",
+            self.capacity,
+            self.attractions.data,
+            np.int32(self.attraction_count),
+            self.nodes.data,
+            np.int32(self.capacity),
+            *self._attract_tail(),
+        )
+
+    def _attract_tail(self) -> tuple:
+        """Attract's arguments after the node count (the same in every Attract variant)."""
+        p = self.params
+        return (
+            np.float32(p.growth_distance * self.unit),
+            np.int32(p.repeat_guard),
+            self.last_candidate.data,
+            self.candidates.counter.data,
+            self.candidates.items.data,
+            np.int32(self.capacity),
+        )
+
+    def connect(self) -> int:
+        """Connect: min(free slots, candidates) work-items each turn a candidate into a node and an edge."""
+        p = self.params
+        connect_count = min(self.free_slots, self.candidates.count())  # book: Mathf.Min(nodesCount, CopyCount)
+        self._launch(
+            "Connect",
+            connect_count,
+            self.nodes.data,
+            self.node_pool.counter.data,
+            self.node_pool.items.data,
+            self.candidates.counter.data,
+            self.candidates.items.data,
+            self.edges.counter.data,
+            self.edges.items.data,
+            np.int32(self.edges.capacity),
+            np.int32(connect_count),
+            np.float32(p.mass_min),
+            np.float32(p.mass_max),
+        )
+        self.last_connect = connect_count
+        if connect_count:
+            self._nodes_changed()
+        return connect_count
+
+    def remove(self) -> None:
+        """Remove: attractions within the kill distance of any active node (the new ones included)."""
+        self._attractions_to_nodes("Remove", self.params.kill_distance * self.unit)
+
+    def _attractions_to_nodes(self, kernel: str, radius: float) -> None:
+        """Search and Remove: every active attraction visits every node slot within ``radius`` (the book's loops)."""
+        self._launch(
+            kernel,
+            self.attraction_count,
+            self.attractions.data,
+            np.int32(self.attraction_count),
+            self.nodes.data,
+            np.int32(self.capacity),
+            np.float32(radius),
+        )
+
+    def grow(self, dt: float) -> None:
+        """Grow: t = saturate(t + dt * growth_speed * mass) for every active node."""
+        dT = np.float32(dt * self.params.growth_speed)
+        self._launch("Grow", self.capacity, self.nodes.data, np.int32(self.capacity), dT)
+
+    # }}}
+
+    def book_step(self, dt: float) -> None:
+        """The book's Step(dt): the algorithm while the pool has free slots, then Grow."""
+        if self.free_slots > 0:  # book: do not run when the object pool is empty
+            self.search()
+            self.attract()
+            made = self.connect()
+            self.remove()
+            self.free_slots = self.node_pool.count()  # CopyNodesCount
+            self.live_edges = self.edges.count()  # CopyEdgesCount
+            if made:
+                self.last_growth_step = self.steps
+        self.grow(dt)
+
+    def step(self, dt: float | None = None) -> None:
+        dt = check_dt(dt, self.default_dt)
+        p = self.params
+        if self.frame_index % p.frame == 0:  # book: every `frame` frames, `iterations` steps
+            for _ in range(p.iterations):
+                self.book_step(dt)
+        self.frame_index += 1
+        self._advance(dt)
+
+    # {{{ state
+
+    def load_state(self, nodes: np.ndarray, attractions: np.ndarray | None = None) -> None:
+        """Replace the node records (and the attractions, same count) by hand, for tests and experiments: the pool
+        becomes the free slots in ascending order (the top = the highest free index), the edges are cleared."""
+        if len(nodes) != self.capacity or (attractions is not None and len(attractions) != self.attraction_count):
+            raise ValueError(f"load_state needs {self.capacity} nodes and {self.attraction_count} attractions")
+        self.nodes.set(np.ascontiguousarray(nodes, self.node_dtype))
+        if attractions is not None:
+            self.attractions.set(np.ascontiguousarray(attractions, self.attraction_dtype))
+        free = np.flatnonzero(nodes["active"] == 0).astype(np.int32)
+        self.node_pool.fill(free)
+        self.free_slots, self.live_edges = len(free), 0
+        self.edges.set_count(0)
+        self.last_candidate.set(np.zeros(self.capacity, cltypes.float4))
+        self._nodes_changed()
+
+    def read_nodes(self) -> np.ndarray:
+        return self.nodes.get()
+
+    def read_attractions(self) -> np.ndarray:
+        return self.attractions.get()
+
+    def read_edges(self) -> np.ndarray:
+        """The live edges (book: the first edgesCount entries of the edge buffer)."""
+        out = np.empty(self.live_edges, EDGE_DTYPE)
+        if self.live_edges:
+            cl.enqueue_copy(self.runtime.queue, out, self.edges.items.data)
+        return out
+
+    def state(self) -> dict[str, np.ndarray]:
+        nodes, attractions, edges = self.read_nodes(), self.read_attractions(), self.read_edges()
+        return {
+            "node_position": np.ascontiguousarray(nodes["position"]),
+            "node_from": nodes["from"].copy(),
+            "node_active": nodes["active"] != 0,
+            "node_t": nodes["t"].copy(),
+            "node_offset": nodes["offset"].copy(),
+            "node_mass": nodes["mass"].copy(),
+            "edges": np.column_stack([edges["a"], edges["b"]]).astype(np.int32).reshape(-1, 2),
+            "attraction_position": np.ascontiguousarray(attractions["position"]),
+            "attraction_active": attractions["active"] != 0,
+            "attraction_nearest": attractions["nearest"].copy(),
+            "attraction_found": attractions["found"] != 0,
+            "nodes_free": np.int32(self.free_slots),
+            "edges_count": np.int32(self.live_edges),
+            "node_count": np.int32(self.live_nodes),
+            "active_attraction": np.int32((attractions["active"] != 0).sum()),
+        }
+
+    def stats(self) -> dict:
+        attractions = self.read_attractions()
+        return {
+            **super().stats(),
+            "attractions": self.attraction_count,
+            "active attractions": int((attractions["active"] != 0).sum()),
+            "live nodes": self.live_nodes,
+            "free slots": self.free_slots,
+            "edges": self.live_edges,
+            "last growth at step": self.last_growth_step,
+        }
+
+    def grown_segments(self) -> tuple[np.ndarray, np.ndarray]:
+        """(a, b') per live edge with b' = a + (b - a) * t_b: the branches as drawn (t grows the child's edge)."""
+        nodes, edges = self.read_nodes(), self.read_edges()
+        drawn = nodes[self.drawn_position]
+        a = drawn[edges["a"]].astype(np.float64)
+        b = drawn[edges["b"]].astype(np.float64)
+        return a, a + (b - a) * nodes["t"][edges["b"]][:, None]
+
+    def export_mesh(self, path) -> None:
+        """--mesh: capsules around every grown edge (mesh_kind=tubes) or OBJ polylines (lines), as drawn."""
+        a, b = self.grown_segments()
+        if self.params.mesh_kind == "lines":
+            vertices = np.stack([a, b], axis=1).reshape(-1, 3)
+            write_mesh(path, vertices, lines=np.arange(len(vertices)).reshape(-1, 2))
+        else:
+            vertices, normals, triangles = ref.tube_mesh(a, b, self.params.tube_radius)
+            write_mesh(path, vertices, triangles, normals=normals)
+
+    # }}}
+
+
+# }}}
+
+# {{{ the sphere scene
+
+
+@dataclass(frozen=True)
+class Params(GrowthParams):
+    side: int = param(28, 4, 160)
+    """Grid resolution of the attraction cloud: side^3 grid points, those inside the sphere kept (book: count)."""
+    cloud: str = param("sphere", choices=("sphere", "hemisphere", "box"))
+    """Shape of the attraction cloud: the book's sphere, the blog's hemisphere generator, or a filled cube."""
     search: str = param("all_pairs", choices=("all_pairs", "grid"), live=True)
     """Neighbour lookups of Search, Attract and Remove: the book's loops over every slot, or a uniform grid
     (cell = the larger of influence and kill distance): same results, far fewer distance tests."""
     render: str = param("lines", choices=("lines", "tubes"), live=True)
     """How the view draws the edges: additive lines (book: Line scene, Edge.shader) or capsules (TubularEdge scene)."""
-    tube_radius: float = param(0.0055, 0.0, lo_open=True, live=True)
-    """Tube radius of the view and of --mesh, cloud units (book: _Thickness 0.033 at object scale 6)."""
-    mesh_kind: str = param("tubes", choices=("tubes", "lines"), live=True)
-    """What --mesh writes: closed capsules per edge, or OBJ polylines (`l`)."""
     object_scale: float = param(6.0, 0.0, lo_open=True, live=True)
     """Drawing scale of the cloud (book: the SpaceColonization object's transform), render only."""
-
-    def check(self) -> None:
-        if self.mass_min > self.mass_max:
-            raise ValueError(f"mass_min must be <= mass_max, got {self.mass_min} > {self.mass_max}")
 
     @property
     def unit(self) -> float:
@@ -144,46 +441,30 @@ class NodeGrid(UniformGrid):
         self.sort(slots)
 
 
-class Simulation(BaseSimulation):
-    """The book's SpaceColonization.cs: attraction, node, candidate and edge buffers; Step per frame."""
+class Simulation(GrowthSimulation):
+    """The book's SpaceColonization.cs on a sphere (or hemisphere, box) of attractions; Step per frame."""
 
     Params = Params
-    history = ("node_count", "active_attraction")
-    program_stem = "space_colonization"
 
     # {{{ setup
 
     def _reset(self) -> None:
         p, rt = self.params, self.runtime
-        self.program = rt.program(self.program_stem)
+        self.program = rt.program("space_colonization")
         rng = np.random.default_rng(self.seed)
         cloud = make_cloud(p, rng)
         seeds = cloud[rng.integers(0, len(cloud), p.seed_count)]  # book: attractions[Random.Range(0, count)]
         self.unit = p.unit
-        self._allocate(cloud, p.node_capacity or len(cloud))
-        self.setup()
-        self.seed_nodes(seeds)
-        self.nodes_count = self.node_pool.count()  # book: CopyNodesCount (A - seeds)
-        self.edges_count = 0
-        self.frame_index = 0
-        self.last_growth_step, self.last_connect = 0, 0
-        self.book_step(0.0)  # the book's Start ends with Step(0): the seeds branch at once
-
-    def _allocate(self, cloud: np.ndarray, capacity: int) -> None:
-        rt = self.runtime
-        self.count, self.capacity = len(cloud), int(capacity)
-        records = np.zeros(self.count, ATTRACTION_DTYPE)
+        self.attraction_count = len(cloud)
+        records = np.zeros(self.attraction_count, ATTRACTION_DTYPE)
         records["position"], records["nearest"], records["active"] = cloud, -1, 1
         self.attractions = rt.to_device(records)
-        self.nodes = rt.zeros(self.capacity, NODE_DTYPE)
-        self.node_pool = Pool(rt, self.capacity, np.int32, "node_pool")
-        self.candidates = Pool(rt, self.capacity, CANDIDATE_DTYPE, "candidates")  # <= one per node per step
-        self.edges = Pool(rt, 2 * self.capacity, EDGE_DTYPE, "edges")  # book: count * 2
-        self.last_candidate = rt.zeros(self.capacity, cltypes.float4)  # repeat_guard: (last candidate, emitted)
         self.lower = cloud.min(axis=0) if len(cloud) else np.zeros(3)
         self.upper = cloud.max(axis=0) if len(cloud) else np.ones(3)
+        self._allocate_nodes(p.node_capacity or len(cloud))
         self.grid_cell = 0.0
         self._sort_attractions_by_cell()
+        self._start(seeds)
 
     def _grid_cell_size(self) -> float:
         p = self.params
@@ -193,52 +474,17 @@ class Simulation(BaseSimulation):
         """Build the attraction and node grids for the current radii and store the attractions sorted by cell
         (device keys, so host and device agree on every cell). Nothing refers to attraction indices across steps
         (Search rewrites `nearest`), so the permutation changes no result."""
-        rt, cell = self.runtime, self._grid_cell_size()
+        rt, cell, n = self.runtime, self._grid_cell_size(), self.attraction_count
         self.grid_cell = cell
-        self.attraction_grid = UniformGrid.covering(rt, max(self.count, 1), self.lower, self.upper + 1e-6, cell)
+        self.attraction_grid = UniformGrid.covering(rt, max(n, 1), self.lower, self.upper + 1e-6, cell)
         self.node_grid = NodeGrid(rt, self.capacity, self.attraction_grid.origin, cell, self.attraction_grid.dims)
-        self.attraction_grid.build(self.attractions, self.count, ATTRACTION_DTYPE.itemsize // 4, 0)
+        self.attraction_grid.build(self.attractions, n, ATTRACTION_DTYPE.itemsize // 4, 0)
         order = (self.attraction_grid.sorted_keys() & np.uint64(0xFFFFFFFF)).astype(np.int64)
         self.attractions.set(self.attractions.get()[order])
-        self.attraction_grid.build(self.attractions, self.count, ATTRACTION_DTYPE.itemsize // 4, 0)
+        self.attraction_grid.build(self.attractions, n, ATTRACTION_DTYPE.itemsize // 4, 0)
         self.node_grid_stale = True
 
-    def _launch(self, name: str, n: int, *args) -> None:
-        self.program.kernel(name).over(n, LOCAL_SIZE, *args)
-
-    # }}}
-
-    # {{{ kernels, in the book's order
-
-    def setup(self) -> None:
-        """Setup: every node slot into the pool, every node inactive."""
-        self.node_pool.set_count(0)
-        self._launch(
-            "Setup",
-            self.capacity,
-            self.nodes.data,
-            np.int32(self.capacity),
-            self.node_pool.counter.data,
-            self.node_pool.items.data,
-        )
-
-    def seed_nodes(self, seeds: np.ndarray) -> None:
-        """Seed (named so because ``seed`` is the random seed): one grown node per seed position."""
-        p = self.params
-        seeds = np.ascontiguousarray(seeds, np.float32).reshape(-1, 3)
-        buffer = self.runtime.to_device(seeds.reshape(-1))
-        n = min(len(seeds), self.node_pool.count())  # never more consumers than free slots
-        self._launch(
-            "Seed",
-            n,
-            buffer.data,
-            np.int32(n),
-            self.nodes.data,
-            self.node_pool.counter.data,
-            self.node_pool.items.data,
-            np.float32(p.mass_min),
-            np.float32(p.mass_max),
-        )
+    def _nodes_changed(self) -> None:
         self.node_grid_stale = True
 
     def _node_grid(self) -> NodeGrid:
@@ -249,615 +495,45 @@ class Simulation(BaseSimulation):
             self.node_grid_stale = False
         return self.node_grid
 
-    def search(self) -> None:
-        """Search: nearest active node within the influence distance of every active attraction."""
-        self._attractions_to_nodes("Search", self.params.influence_distance * self.unit)
+    # }}}
+
+    # {{{ the grid variants of Search, Attract and Remove
 
     def attract(self) -> None:
-        """Attract: the candidate counter is cleared, then every grown, pulled node appends one candidate."""
-        p = self.params
+        """Attract; with ``search=grid`` each node visits the attraction-grid cells around it (Attract_grid)."""
+        if self.params.search != "grid":
+            super().attract()
+            return
         self.candidates.set_count(0)
-        tail = (
-            np.float32(p.growth_distance * self.unit),
-            np.int32(p.repeat_guard),
-            self.last_candidate.data,
-            self.candidates.counter.data,
-            self.candidates.items.data,
-            np.int32(self.capacity),
-        )
-        if p.search == "grid":
-            if self.grid_cell < self._grid_cell_size():
-                self._sort_attractions_by_cell()
-            grid = self.attraction_grid
-            self._launch(
-                "Attract_grid",
-                self.capacity,
-                self.attractions.data,
-                self.nodes.data,
-                np.int32(self.capacity),
-                *tail,
-                *grid.geometry_args(),
-                *grid.search_args(),
-            )
-        else:
-            self._launch(
-                "Attract",
-                self.capacity,
-                self.attractions.data,
-                np.int32(self.count),
-                self.nodes.data,
-                np.int32(self.capacity),
-                *tail,
-            )
-
-    def connect(self) -> int:
-        """Connect: min(free slots, candidates) work-items each turn a candidate into a node and an edge."""
-        p = self.params
-        connect_count = min(self.nodes_count, self.candidates.count())  # book: Mathf.Min(nodesCount, CopyCount)
+        if self.grid_cell < self._grid_cell_size():
+            self._sort_attractions_by_cell()
+        grid = self.attraction_grid
         self._launch(
-            "Connect",
-            connect_count,
+            "Attract_grid",
+            self.capacity,
+            self.attractions.data,
             self.nodes.data,
-            self.node_pool.counter.data,
-            self.node_pool.items.data,
-            self.candidates.counter.data,
-            self.candidates.items.data,
-            self.edges.counter.data,
-            self.edges.items.data,
-            np.int32(self.edges.capacity),
-            np.int32(connect_count),
-            np.float32(p.mass_min),
-            np.float32(p.mass_max),
+            np.int32(self.capacity),
+            *self._attract_tail(),
+            *grid.geometry_args(),
+            *grid.search_args(),
         )
-        self.last_connect = connect_count
-        if connect_count:
-            self.node_grid_stale = True
-        return connect_count
-
-    def remove(self) -> None:
-        """Remove: attractions within the kill distance of any active node (the new ones included)."""
-        self._attractions_to_nodes("Remove", self.params.kill_distance * self.unit)
 
     def _attractions_to_nodes(self, kernel: str, radius: float) -> None:
-        """Search and Remove: every active attraction visits the nodes within ``radius``, all pairs as in the book or
-        through the node grid (``<kernel>_grid``)."""
-        head = (self.attractions.data, np.int32(self.count), self.nodes.data)
-        if self.params.search == "grid":
-            grid = self._node_grid()
-            tail = (np.float32(radius), *grid.geometry_args(), *grid.search_args())
-            self._launch(f"{kernel}_grid", self.count, *head, *tail)
-        else:
-            self._launch(kernel, self.count, *head, np.int32(self.capacity), np.float32(radius))
-
-    def grow(self, dt: float) -> None:
-        """Grow: t = saturate(t + dt * growth_speed * mass) for every active node."""
-        dT = np.float32(dt * self.params.growth_speed)
-        self._launch("Grow", self.capacity, self.nodes.data, np.int32(self.capacity), dT)
-
-    # }}}
-
-    def book_step(self, dt: float) -> None:
-        """The book's Step(dt): the algorithm while the pool has slots, then Grow."""
-        if self.nodes_count > 0:  # book: do not run when the object pool is empty
-            self.search()
-            self.attract()
-            made = self.connect()
-            self.remove()
-            self.nodes_count = self.node_pool.count()  # CopyNodesCount
-            self.edges_count = self.edges.count()  # CopyEdgesCount
-            if made:
-                self.last_growth_step = self.steps
-        self.grow(dt)
-
-    def step(self, dt: float | None = None) -> None:
-        dt = check_dt(dt, self.default_dt)
-        p = self.params
-        if self.frame_index % p.frame == 0:  # book: every `frame` frames, `iterations` steps
-            for _ in range(p.iterations):
-                self.book_step(dt)
-        self.frame_index += 1
-        self._advance(dt)
-
-    # {{{ state
-
-    def load_state(self, nodes: np.ndarray, attractions: np.ndarray | None = None) -> None:
-        """Replace the node records (and the attractions, same count) by hand, for tests and experiments: the pool
-        becomes the free slots in ascending order (the top = the highest free index), the edges are cleared."""
-        if len(nodes) != self.capacity or (attractions is not None and len(attractions) != self.count):
-            raise ValueError(f"load_state needs {self.capacity} nodes and {self.count} attractions")
-        self.nodes.set(np.ascontiguousarray(nodes, NODE_DTYPE))
-        if attractions is not None:
-            self.attractions.set(np.ascontiguousarray(attractions, ATTRACTION_DTYPE))
-        free = np.flatnonzero(nodes["active"] == 0).astype(np.int32)
-        self.node_pool.fill(free)
-        self.nodes_count, self.edges_count = len(free), 0
-        self.edges.set_count(0)
-        self.last_candidate.set(np.zeros(self.capacity, cltypes.float4))
-        self.node_grid_stale = True
-
-    def read_nodes(self) -> np.ndarray:
-        return self.nodes.get()
-
-    def read_attractions(self) -> np.ndarray:
-        return self.attractions.get()
-
-    def read_edges(self) -> np.ndarray:
-        """The live edges (book: the first edgesCount entries of the edge buffer)."""
-        out = np.empty(self.edges_count, EDGE_DTYPE)
-        if self.edges_count:
-            cl.enqueue_copy(self.runtime.queue, out, self.edges.items.data)
-        return out
-
-    def state(self) -> dict[str, np.ndarray]:
-        nodes, attractions, edges = self.read_nodes(), self.read_attractions(), self.read_edges()
-        return {
-            "node_position": np.ascontiguousarray(nodes["position"]),
-            "node_from": nodes["from"].copy(),
-            "node_active": nodes["active"] != 0,
-            "node_t": nodes["t"].copy(),
-            "node_offset": nodes["offset"].copy(),
-            "node_mass": nodes["mass"].copy(),
-            "edges": np.column_stack([edges["a"], edges["b"]]).astype(np.int32).reshape(-1, 2),
-            "attraction_position": np.ascontiguousarray(attractions["position"]),
-            "attraction_active": attractions["active"] != 0,
-            "attraction_nearest": attractions["nearest"].copy(),
-            "attraction_found": attractions["found"] != 0,
-            "nodes_free": np.int32(self.nodes_count),
-            "edges_count": np.int32(self.edges_count),
-            "node_count": np.int32(self.capacity - self.nodes_count),
-            "active_attraction": np.int32((attractions["active"] != 0).sum()),
-        }
-
-    def stats(self) -> dict:
-        attractions = self.read_attractions()
-        return {
-            **super().stats(),
-            "attractions": self.count,
-            "active attractions": int((attractions["active"] != 0).sum()),
-            "nodes used": self.capacity - self.nodes_count,
-            "nodes free": self.nodes_count,
-            "edges": self.edges_count,
-            "last growth at step": self.last_growth_step,
-            "search": getattr(self.params, "search", "all_pairs"),
-        }
-
-    def grown_segments(self) -> tuple[np.ndarray, np.ndarray]:
-        """(a, b') per live edge with b' = a + (b - a) * t_b: the branches as drawn (t grows the child's edge)."""
-        nodes, edges = self.read_nodes(), self.read_edges()
-        a = nodes["position"][edges["a"]].astype(np.float64)
-        b = nodes["position"][edges["b"]].astype(np.float64)
-        return a, a + (b - a) * nodes["t"][edges["b"]][:, None]
-
-    def export_mesh(self, path) -> None:
-        """--mesh: capsules around every grown edge (mesh_kind=tubes) or OBJ polylines (lines), cloud units."""
-        a, b = self.grown_segments()
-        if self.params.mesh_kind == "lines":
-            vertices = np.stack([a, b], axis=1).reshape(-1, 3)
-            write_mesh(path, vertices, lines=np.arange(len(vertices)).reshape(-1, 2))
-        else:
-            vertices, normals, triangles = ref.tube_mesh(a, b, self.params.tube_radius)
-            write_mesh(path, vertices, triangles, normals=normals)
-
-    # }}}
-
-
-# }}}
-
-# {{{ the skinned application (book section 1.4)
-
-SKINNED_ATTRACTION_DTYPE = np.dtype(
-    [("position", "<f4", 3), ("bone", "<i4"), ("nearest", "<i4"), ("found", "<u4"), ("active", "<u4")]
-)
-"""Mirror of SkinnedAttraction (28 bytes)."""
-SKINNED_NODE_DTYPE = np.dtype(
-    [
-        ("position", "<f4", 3),
-        ("animated", "<f4", 3),
-        ("index0", "<i4"),
-        ("t", "<f4"),
-        ("offset", "<f4"),
-        ("mass", "<f4"),
-        ("from", "<i4"),
-        ("active", "<u4"),
-    ]
-)
-"""Mirror of SkinnedNode (48 bytes)."""
-SKINNED_CANDIDATE_DTYPE = np.dtype([("position", "<f4", 3), ("node", "<i4"), ("bone", "<i4")])
-"""Mirror of SkinnedCandidate (20 bytes)."""
-
-
-@functools.lru_cache(maxsize=4)
-def figure_cloud(resolution: int, sample_distance: float, tries: int, seed: int) -> np.ndarray:
-    """Attraction points filling the procedural figure at rest (VolumeSampler: voxels, then Poisson samples, those
-    outside the surface dropped), and the voxel unit. Cached: the book bakes this into an asset once."""
-    figure = skinned_figure.Figure()
-    vertices, triangles, _ = figure.mesh()
-    volume = skinned_figure.voxelize(vertices, triangles, resolution)
-    points = skinned_figure.poisson_volume(volume, np.random.default_rng(seed), sample_distance, tries)
-    inside = skinned_figure.inside_mesh(points, vertices, triangles, figure.components())
-    return points[inside], volume.unit
-
-
-@dataclass(frozen=True)
-class SkinnedParams(BaseParams):
-    resolution: int = param(100, 8, 256)
-    """Voxels along the figure's largest extent (VolumeSampler window: resolution; the book's asset: 100)."""
-    sample_distance: float = param(1.0, 1.0, 4.0)
-    """Smallest distance between attraction points, voxels (VolumeSampler: r)."""
-    tries: int = param(8, 1, 64)
-    """Darts thrown around a sample before it is retired (VolumeSampler's Poisson sampling)."""
-    seed_count: int = param(6, 1, 256)
-    """Initial nodes on random attraction points (book: seedCount)."""
-    unit_scale: float = param(2.5, 1.0, 10.0)
-    """Distance unit = voxel size x unit_scale (book: unitScale)."""
-    influence_distance: float = param(1.91, 0.0, lo_open=True, live=True)
-    """Influence distance in units (book scene: influenceDistance)."""
-    growth_distance: float = param(0.573, 0.0, lo_open=True, live=True)
-    """Growth distance in units (book scene: growthDistance)."""
-    kill_distance: float = param(0.398, 0.0, lo_open=True, live=True)
-    """Kill distance in units (book scene: killDistance)."""
-    growth_speed: float = param(22.0, 0.0, lo_open=True, live=True)
-    """t grows by dt * growth_speed * mass per step, 1/s (book: growthSpeed)."""
-    mass_min: float = param(0.25, 0.0, lo_open=True, live=True)
-    """Lower bound of the growth-speed factor (book: massMin)."""
-    mass_max: float = param(1.0, 0.0, lo_open=True, live=True)
-    """Upper bound of the growth-speed factor (book: massMax)."""
-    frame: int = param(1, 1, 60, live=True)
-    """Run the algorithm every `frame` steps (book: frame)."""
-    iterations: int = param(1, 1, 5, live=True)
-    """Algorithm steps per run (book: iterations)."""
-    repeat_guard: bool = param(False, live=True)
-    """A node does not emit its last candidate again, nor one on itself (ugpcl; off = the book)."""
-    node_capacity: int = param(0, 0, 1 << 24)
-    """Node slots (0: one per attraction, as the book)."""
-    anim_time: float = param(0.0, 0.0)
-    """Animation clock at reset, s of the clip."""
-    anim_speed: float = param(0.35, 0.0, live=True)
-    """Clip seconds per second (book scene: Animator speed 0.35)."""
-    anim_period: float = param(2.4, 0.1, live=True)
-    """Length of the dance loop, clip seconds."""
-    animate: bool = param(True, live=True)
-    """Play the animation (false: frozen at the current clip time). Growth never depends on it."""
-    tube_radius: float = param(0.0053, 0.0, lo_open=True, live=True)
-    """Tube radius, figure units (book: _Thickness 0.01 on a 3.4-unit character; this figure is 1.8 tall)."""
-    mesh_kind: str = param("tubes", choices=("tubes", "lines"), live=True)
-    """What --mesh writes (at the current, animated pose)."""
-
-    def check(self) -> None:
-        if self.mass_min > self.mass_max:
-            raise ValueError(f"mass_min must be <= mass_max, got {self.mass_min} > {self.mass_max}")
-
-
-class SkinnedSimulation(Simulation):
-    """The book's SkinnedSpaceColonization.cs on the procedural figure: growth in bind space, nodes skinned by their
-    one bone every step (Animate)."""
-
-    Params = SkinnedParams
-    program_stem = "space_colonization_skinned"
-
-    def _reset(self) -> None:
-        p, rt = self.params, self.runtime
-        self.program = rt.program(self.program_stem)
-        key = (p.resolution, p.sample_distance, p.tries, self.seed)
-        if getattr(self, "figure_key", None) != key:  # the book samples the volume and runs SetupSkin once
-            self._build_figure(key)
-        self.figure = skinned_figure.Figure(period=p.anim_period)
-        self.unit = self.voxel_unit * p.unit_scale  # book: unitDistance = volume.unit * unitScale
-        self.capacity = p.node_capacity or self.count
-        self.nodes = rt.zeros(self.capacity, SKINNED_NODE_DTYPE)
-        self.node_pool = Pool(rt, self.capacity, np.int32, "node_pool")
-        self.candidates = Pool(rt, self.capacity, SKINNED_CANDIDATE_DTYPE, "candidates")
-        self.edges = Pool(rt, 2 * self.capacity, EDGE_DTYPE, "edges")
-        self.last_candidate = rt.zeros(self.capacity, cltypes.float4)
-        self.setup_attractions()
-        rng = np.random.default_rng(self.seed)
-        seeds = self.cloud[rng.integers(0, self.count, p.seed_count)]
-        self.setup()
-        self.seed_nodes(seeds)
-        self.nodes_count, self.edges_count = self.node_pool.count(), 0
-        self.frame_index = 0
-        self.last_growth_step, self.last_connect = 0, 0
-        self.anim_time = p.anim_time
-        self.book_step(0.0)
-        self.animate()
-
-    def _build_figure(self, key) -> None:
-        rt = self.runtime
-        cloud, self.voxel_unit = figure_cloud(*key)
-        self.figure_key = key
-        self.cloud = cloud
-        self.count = len(cloud)
-        records = np.zeros(self.count, SKINNED_ATTRACTION_DTYPE)
-        records["position"], records["bone"], records["nearest"], records["active"] = cloud, -1, -1, 1
-        self.attractions = rt.to_device(records)
-        vertices, self.mesh_triangles, self.mesh_bone = skinned_figure.Figure().mesh()
-        self.mesh_vertices = vertices
-        self.setup_skin(vertices, self.mesh_bone)
-        self.bind_poses = skinned_figure.Figure().bind_poses()
-        self.bind_pose_buffer = rt.to_device(self.bind_poses.astype(np.float32).reshape(-1))
-        self.bone_matrix_buffer = rt.zeros(self.bind_poses.size, np.float32)
-
-    # {{{ kernels, in the book's order
-
-    def setup_skin(self, vertices: np.ndarray, bones: np.ndarray) -> None:
-        """SetupSkin: each attraction takes the bone of its nearest mesh vertex."""
-        rt = self.runtime
-        vertex_buffer = rt.to_device(np.ascontiguousarray(vertices, np.float32).reshape(-1))
-        bone_buffer = rt.to_device(np.ascontiguousarray(bones, np.int32))
-        self._launch(
-            "SetupSkin",
-            self.count,
-            self.attractions.data,
-            np.int32(self.count),
-            vertex_buffer.data,
-            bone_buffer.data,
-            np.int32(len(vertices)),
-        )
-        rt.finish()  # the temporary buffers go out of scope (the book's `using` block)
-
-    def setup_attractions(self) -> None:
-        """SetupAttractions: every attraction live again, nothing found (the cloud and its bones are kept)."""
-        self._launch("SetupAttractions", self.count, self.attractions.data, np.int32(self.count))
-
-    def seed_nodes(self, seeds: np.ndarray) -> None:
-        """Seed: as the plain kernel, plus the bone of the nearest attraction."""
-        p = self.params
-        seeds = np.ascontiguousarray(seeds, np.float32).reshape(-1, 3)
-        buffer = self.runtime.to_device(seeds.reshape(-1))
-        n = min(len(seeds), self.node_pool.count())
-        self._launch(
-            "Seed",
-            n,
-            buffer.data,
-            np.int32(n),
-            self.attractions.data,
-            np.int32(self.count),
-            self.nodes.data,
-            self.node_pool.counter.data,
-            self.node_pool.items.data,
-            np.float32(p.mass_min),
-            np.float32(p.mass_max),
-        )
-
-    def search(self) -> None:
-        """Search (bind space; the skinned kernels keep the book's all-pairs loops)."""
-        p = self.params
-        self._launch(
-            "Search",
-            self.count,
-            self.attractions.data,
-            np.int32(self.count),
-            self.nodes.data,
-            np.int32(self.capacity),
-            np.float32(p.influence_distance * self.unit),
-        )
-
-    def attract(self) -> None:
-        """Attract: candidates carry the bone of the nearest attraction that pulls their node."""
-        p = self.params
-        self.candidates.set_count(0)
-        self._launch(
-            "Attract",
-            self.capacity,
-            self.attractions.data,
-            np.int32(self.count),
-            self.nodes.data,
-            np.int32(self.capacity),
-            np.float32(p.growth_distance * self.unit),
-            np.int32(p.repeat_guard),
-            self.last_candidate.data,
-            self.candidates.counter.data,
-            self.candidates.items.data,
-            np.int32(self.capacity),
-        )
-
-    def remove(self) -> None:
-        """Remove (bind space)."""
-        p = self.params
-        self._launch(
-            "Remove",
-            self.count,
-            self.attractions.data,
-            np.int32(self.count),
-            self.nodes.data,
-            np.int32(self.capacity),
-            np.float32(p.kill_distance * self.unit),
-        )
-
-    def animate(self, bone_matrices: np.ndarray | None = None) -> None:
-        """Animate: animated = (bone matrix @ bind pose) @ (position, 1) per live node, with the figure's pose at
-        the current clip time unless `bone_matrices` (B, 4, 4) are given (the book reads them from the Animator)."""
-        if bone_matrices is None:
-            bone_matrices = self.bone_matrices()
-        self.bone_matrix_buffer.set(np.ascontiguousarray(bone_matrices, np.float32).reshape(-1))
-        self._launch(
-            "Animate",
-            self.capacity,
-            self.nodes.data,
-            np.int32(self.capacity),
-            self.bind_pose_buffer.data,
-            self.bone_matrix_buffer.data,
-            np.int32(len(self.bind_poses)),
-        )
-
-    # }}}
-
-    def bone_matrices(self) -> np.ndarray:
-        """Bone world matrices (B, 4, 4) at the current clip time."""
-        return self.figure.pose(self.anim_time)
-
-    def step(self, dt: float | None = None) -> None:
-        dt = check_dt(dt, self.default_dt)
-        super().step(dt)  # growth, in bind space
-        if self.params.animate:
-            self.anim_time += dt * self.params.anim_speed
-        self.animate()
-
-    def state(self) -> dict[str, np.ndarray]:
-        out = super().state()
-        nodes, attractions = self.read_nodes(), self.read_attractions()
-        out.update(
-            node_animated=np.ascontiguousarray(nodes["animated"]),
-            node_bone=nodes["index0"].copy(),
-            attraction_bone=attractions["bone"].copy(),
-            bind_poses=self.bind_poses.astype(np.float32),
-            bone_matrices=self.bone_matrices().astype(np.float32),
-            mesh_vertices=self.mesh_vertices.astype(np.float32),
-            mesh_triangles=self.mesh_triangles.astype(np.int32),
-            mesh_bone=self.mesh_bone.astype(np.int32),
-            anim_time=np.float32(self.anim_time),
-        )
-        return out
-
-    def stats(self) -> dict:
-        return {**super().stats(), "clip time": round(self.anim_time, 3)}
-
-    def grown_segments(self) -> tuple[np.ndarray, np.ndarray]:
-        """(a, b') per live edge at the animated pose (the skinned scene exports what it shows)."""
-        nodes, edges = self.read_nodes(), self.read_edges()
-        a = nodes["animated"][edges["a"]].astype(np.float64)
-        b = nodes["animated"][edges["b"]].astype(np.float64)
-        return a, a + (b - a) * nodes["t"][edges["b"]][:, None]
-
-
-# }}}
-
-# {{{ the blog's CPU version
-
-
-CROWN_CLOUDS = ((75.0, 50.0), (90.0, 75.0), (100.0, 90.0))
-"""(outer, inner) radius of the blog demo's three crown clouds, appended one after the other."""
-
-
-@dataclass(frozen=True)
-class CpuParams(BaseParams):
-    crown_points: tuple[int, int, int] = param((800, 300, 50), 0, 1 << 20)
-    """Points of the three crown clouds (blog demo: generateAttractionPoints(800, 75, 50 ...), (300, 90, 75 ...),
-    (50, 100, 90 ...))."""
-    aspect: float = param(2.0, 0.0, lo_open=True)
-    """Vertical stretch of the crown clouds (blog: pAspect)."""
-    offset_y: float = 30.0
-    """Height of the crown clouds' base (blog: pOffsetY)."""
-    trunk_height: float = 30.0
-    """The trunk: growBranch(0, (0, trunk_height, 0)) before the first iteration."""
-    max_distance: float = param(100.0, 0.0, lo_open=True)
-    """A point pulls its closest vertex within this distance (blog: pMaxDistance, the paper's d_i)."""
-    branch_size: float = param(2.0, 0.0, lo_open=True)
-    """Length of every new branch (blog: pBranchSize, the paper's D)."""
-    cut_off_distance: float = param(10.0, 0.0, lo_open=True)
-    """A point this close to its closest vertex is removed (blog: pCutOffDistance, the paper's d_k)."""
-    bias: tuple[float, float, float] = (0.1, 0.2, 0.0)
-    """Added to every new branch after the normalised step (blog: pBias)."""
-    root_points: int = param(100, 0, 1 << 20)
-    """Points of the roots cloud generated when the crown is done (blog demo: 100, 50, 10, 0.2, -3)."""
-    root_outer: float = param(50.0, 0.0, lo_open=True)
-    """Outer radius of the roots cloud."""
-    root_inner: float = param(10.0, 0.0)
-    """Inner radius of the roots cloud."""
-    root_aspect: float = param(0.2, 0.0, lo_open=True)
-    """Vertical stretch of the roots cloud."""
-    root_offset_y: float = -3.0
-    """Base height of the roots cloud."""
-    root_max_distance: float = param(25.0, 0.0, lo_open=True)
-    """pMaxDistance of the roots stage."""
-    root_branch_size: float = param(2.0, 0.0, lo_open=True)
-    """pBranchSize of the roots stage."""
-    root_cut_off_distance: float = param(5.0, 0.0, lo_open=True)
-    """pCutOffDistance of the roots stage."""
-    root_bias: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    """pBias of the roots stage."""
-    clear_leftovers: bool = False
-    """Drop the crown's stuck points before the roots stage (blog: pClear false keeps them)."""
-    repeat_guard: bool = False
-    """A vertex does not grow to the point it grew to last time (ugpcl). Without it a trapped vertex regrows the
-    same point every iteration and the stage ends by ugpcl's stall detector."""
-    max_iterations: int = param(2000, 1, 1 << 20)
-    """Iterations per stage at most (ugpcl)."""
-
-    def check(self) -> None:
-        if self.root_inner >= self.root_outer:
-            raise ValueError(f"root_inner must be < root_outer, got {self.root_inner} >= {self.root_outer}")
-
-
-class CpuSimulation(BaseSimulation):
-    """The blog's tree: one doIteration per step, the crown stage, then the roots stage, then nothing."""
-
-    Params = CpuParams
-    history = ("vertex_count", "point_count")
-
-    def _reset(self) -> None:
-        p = self.params
-        self.rng = np.random.default_rng(self.seed)
-        self.tree = ref.BlogTree()
-        self.tree.grow_branch(0, (0.0, p.trunk_height, 0.0))
-        for count, (outer, inner) in zip(p.crown_points, CROWN_CLOUDS, strict=True):
-            self.tree.add_points(ref.hemisphere_cloud(count, outer, inner, p.aspect, p.offset_y, self.rng))
-        self.stage = 0
-        self.stage_iterations = np.zeros(2, np.int32)
-        self.stalled = np.zeros(2, bool)
-        self.root_stage_first_vertex = -1
-
-    @property
-    def finished(self) -> bool:
-        return self.stage >= 2
-
-    def do_iteration(self) -> None:
-        """One doIteration of the current stage; ends the stage when no points are left or nothing new grew."""
-        p = self.params
-        if self.finished:
+        """Search and Remove; with ``search=grid`` each attraction visits the node-grid cells around it
+        (``<kernel>_grid``)."""
+        if self.params.search != "grid":
+            super()._attractions_to_nodes(kernel, radius)
             return
-        if self.stage == 0:
-            args = (p.max_distance, p.branch_size, p.cut_off_distance, p.bias)
-        else:
-            args = (p.root_max_distance, p.root_branch_size, p.root_cut_off_distance, p.root_bias)
-        left, grown, all_repeats = self.tree.do_iteration(*args, repeat_guard=p.repeat_guard)
-        self.stage_iterations[self.stage] += 1
-        stuck = grown == 0 or all_repeats  # nothing new can ever grow: the same iteration would repeat forever
-        if not left or stuck or self.stage_iterations[self.stage] >= p.max_iterations:
-            self.stalled[self.stage] = left
-            self._next_stage()
+        grid = self._node_grid()
+        head = (self.attractions.data, np.int32(self.attraction_count), self.nodes.data)
+        tail = (np.float32(radius), *grid.geometry_args(), *grid.search_args())
+        self._launch(f"{kernel}_grid", self.attraction_count, *head, *tail)
 
-    def _next_stage(self) -> None:
-        p = self.params
-        self.stage += 1
-        if self.stage == 1:  # the blog's second cloud: roots around the base
-            self.root_stage_first_vertex = len(self.tree.vertices)
-            roots = ref.hemisphere_cloud(
-                p.root_points, p.root_outer, p.root_inner, p.root_aspect, p.root_offset_y, self.rng
-            )
-            self.tree.add_points(roots, clear=p.clear_leftovers)
-
-    def step(self, dt: float | None = None) -> None:
-        dt = check_dt(dt, self.default_dt)
-        self.do_iteration()
-        self._advance(dt)
-
-    def state(self) -> dict[str, np.ndarray]:
-        return {
-            "vertices": self.tree.vertices.copy(),
-            "segments": np.asarray(self.tree.segments, np.int32).reshape(-1, 2),
-            "attraction_position": self.tree.points.copy(),
-            "stage_iterations": self.stage_iterations.copy(),
-            "stalled": self.stalled.copy(),
-            "root_stage_first_vertex": np.int32(self.root_stage_first_vertex),
-            "vertex_count": np.int32(len(self.tree.vertices)),
-            "point_count": np.int32(len(self.tree.points)),
-        }
+    # }}}
 
     def stats(self) -> dict:
-        return {
-            **super().stats(),
-            "stage": ("crown", "roots", "done")[self.stage],
-            "vertices": len(self.tree.vertices),
-            "points left": len(self.tree.points),
-            "iterations (crown, roots)": tuple(int(i) for i in self.stage_iterations),
-            "stalled (crown, roots)": tuple(bool(s) for s in self.stalled),
-        }
-
-    def export_mesh(self, path) -> None:
-        """--mesh: OBJ polylines of the segments (blog units)."""
-        segments = np.asarray(self.tree.segments, np.int64).reshape(-1, 2)
-        write_mesh(path, self.tree.vertices, lines=segments)
+        return {**super().stats(), "search": self.params.search}
 
 
 # }}}
@@ -878,8 +554,8 @@ def side_for(size: int) -> int:
 
 
 def grow_fully(sim: Simulation, max_steps: int) -> tuple[int, float, int]:
-    """Step until nothing can grow any more: the pool is empty, or no node was made for as long as the slowest node
-    needs to mature. Returns (steps run, seconds, step of the last growth)."""
+    """Step until nothing can grow any more: no free slot is left, or no node was made for as long as the slowest
+    node needs to mature. Returns (steps run, seconds, step of the last growth)."""
     p = sim.params
     patience = math.ceil(1.0 / (sim.default_dt * p.growth_speed * p.mass_min)) + 1
     queue = sim.runtime.queue
@@ -887,16 +563,16 @@ def grow_fully(sim: Simulation, max_steps: int) -> tuple[int, float, int]:
     start = time.perf_counter()
     while sim.steps < max_steps:
         sim.step()
-        if sim.nodes_count == 0 or sim.steps - sim.last_growth_step > patience:
+        if sim.free_slots == 0 or sim.steps - sim.last_growth_step > patience:
             break
     queue.finish()
     return sim.steps, time.perf_counter() - start, sim.last_growth_step
 
 
 def bench(runtime, sizes=None) -> list[dict]:
-    """Space colonization (book scene values, sphere cloud, repeat guard on so that growth ends): seconds and steps
-    until the tree is fully grown, steps/s over that growth, and the uniform grid's speed-up over the book's
-    all-pairs loops (all-pairs is skipped where one tree would take minutes)."""
+    """Space colonization (book scene values, sphere cloud, the default repeat guard so that growth ends): seconds
+    and steps until the tree is fully grown, steps/s over that growth, and the uniform grid's speed-up over the
+    book's all-pairs loops (all-pairs is skipped where one tree would take minutes)."""
     sizes = sizes or ([4096, 16384, 65536, 262144] if runtime.is_gpu else [1736, 4096, 16384])
     all_pairs_limit = 70000 if runtime.is_gpu else 20000
     rows = []
@@ -904,11 +580,11 @@ def bench(runtime, sizes=None) -> list[dict]:
         side = side_for(size)
         seconds = {}
         for search in ("all_pairs", "grid"):
-            sim = Simulation(runtime, Params(side=side, search=search, repeat_guard=True), seed=0)
-            if search == "all_pairs" and sim.count > all_pairs_limit:
+            sim = Simulation(runtime, Params(side=side, search=search), seed=0)
+            if search == "all_pairs" and sim.attraction_count > all_pairs_limit:
                 rows.append(
                     {
-                        "A": sim.count,
+                        "A": sim.attraction_count,
                         "search": search,
                         "steps": "-",
                         "s to grow": "-",
@@ -923,12 +599,12 @@ def bench(runtime, sizes=None) -> list[dict]:
             speed_up = seconds["all_pairs"] / secs if search == "grid" and "all_pairs" in seconds else "-"
             rows.append(
                 {
-                    "A": sim.count,
+                    "A": sim.attraction_count,
                     "search": search,
                     "steps": last,
                     "s to grow": secs,
                     "steps/s": steps / secs,
-                    "nodes": sim.capacity - sim.nodes_count,
+                    "nodes": sim.live_nodes,
                     "speed-up": speed_up,
                 }
             )
@@ -951,19 +627,5 @@ SCENES = [
         "The same tree drawn as capsules by a geometry shader (vol.4 ch.1, TubularEdge scene)",
         {"render": "tubes"},
         preview={"steps": 240},
-    ),
-    Scene(
-        "space_colonization_skinned",
-        SkinnedSimulation,
-        "Space colonization inside a dancing figure: nodes skinned by their bone (vol.4 ch.1 section 1.4)",
-        view="SkinnedView",
-        preview={"steps": 300},
-    ),
-    Scene(
-        "space_colonization_cpu",
-        CpuSimulation,
-        "The blog's CPU space colonization: crown, then roots (vol.4 ch.1 + B. Olij 2014)",
-        view="CpuView",
-        preview={"steps": 300},
     ),
 ]

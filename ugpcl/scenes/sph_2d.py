@@ -6,7 +6,7 @@ running the book's RunFluidSolver: ``DensityCS`` (Poly6, self excluded) -> ``Pre
 ``IntegrateCS`` (mouse push, penalty walls, gravity, symplectic Euler) -> swap of the particle ping-pong pair.
 
 ``search=grid`` (spec 05 section 9) sorts the particles by cell with the shared ``ugpcl.grid.UniformGrid`` before
-each sub-step and runs ``DensityGridCS`` / ``ForceGridCS``: the same per-pair maths over the 3x3 cells around each
+each sub-step and runs ``DensityCS_grid`` / ``ForceCS_grid``: the same per-pair maths over the 3x3 cells around each
 particle, equal to the book's all-pairs loops up to summation order.
 
 Differences from the book: N need not be a multiple of 1024 (the global size is padded, kernels guard i < N); the
@@ -83,7 +83,7 @@ class Params(BaseParams):
     """book: ForceCS divides by the densities as they are; fixed: by at least the self term the density leaves out,
     which keeps spray particles (density near 0) from a viscous blow-up."""
     search: str = param("all_pairs", choices=("all_pairs", "grid"), live=True)
-    """Neighbour search: the book's loops over all N, or the uniform grid (DensityGridCS/ForceGridCS)."""
+    """Neighbour search: the book's loops over all N, or the uniform grid (DensityCS_grid/ForceCS_grid)."""
     local_size: int = param(256, choices=LOCAL_SIZES)
     """Work-group size (book: THREAD_SIZE_X = 1024); lowered to what the device allows."""
     particle_radius: float = param(0.05, 0.0, lo_open=True, live=True)
@@ -166,7 +166,7 @@ class Simulation(BaseSimulation):
 
     def _fit_local_size(self, wanted: int) -> int:
         """Largest power of two <= wanted that every kernel of the program can run with on this device."""
-        names = ("DensityCS", "DensityGridCS", "PressureCS", "ForceCS", "ForceGridCS", "IntegrateCS")
+        names = ("DensityCS", "DensityCS_grid", "PressureCS", "ForceCS", "ForceCS_grid", "IntegrateCS")
         limit = min(self.program.kernel(k).work_group_size() for k in names)
         size = wanted
         while size > max(1, limit):
@@ -195,7 +195,7 @@ class Simulation(BaseSimulation):
     # {{{ kernels, in the book's order
 
     def density_cs(self) -> None:
-        """DensityCS (or DensityGridCS): density of every particle from particles_in."""
+        """DensityCS (or DensityCS_grid): density of every particle from particles_in."""
         p = self.params
         args = (
             self.particles.read.data,
@@ -206,7 +206,7 @@ class Simulation(BaseSimulation):
         )
         if p.search == "grid":
             grid = self.grid()
-            self.program.kernel("DensityGridCS")(
+            self.program.kernel("DensityCS_grid")(
                 self._global(),
                 (self.local_size,),
                 *args,
@@ -230,7 +230,7 @@ class Simulation(BaseSimulation):
         )
 
     def force_cs(self) -> None:
-        """ForceCS (or ForceGridCS): acceleration of every particle from pressure and viscosity."""
+        """ForceCS (or ForceCS_grid): acceleration of every particle from pressure and viscosity."""
         p = self.params
         args = (
             self.particles.read.data,
@@ -246,7 +246,7 @@ class Simulation(BaseSimulation):
         )
         if p.search == "grid":
             grid = self.grid()
-            self.program.kernel("ForceGridCS")(
+            self.program.kernel("ForceCS_grid")(
                 self._global(),
                 (self.local_size,),
                 *args,
