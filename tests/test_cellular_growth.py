@@ -172,8 +172,13 @@ def no_nan(sim) -> None:
     assert (low & (radius <= 1.0)).all(), f"alive radii out of range: {radius.min()}..{radius.max()}"
 
 
+def network_params(**overrides) -> Params:
+    """The cellular_growth scene's parameters (CellularGrowth.unity's values) with ``overrides``."""
+    return get("cellular_growth").params(**overrides)
+
+
 def network(runtime, seed: int = 0, **overrides) -> Simulation:
-    return Simulation(runtime, Params(**overrides), seed)
+    return Simulation(runtime, network_params(**overrides), seed)
 
 
 def particles_only(runtime, seed: int = 0, **overrides) -> ParticleSimulation:
@@ -580,7 +585,7 @@ def test_network_prototype_counts(runtime):
 )
 def test_bad_parameters_name_the_field_and_range(overrides, message):
     with pytest.raises(ValueError, match=message):
-        Params(**overrides)
+        network_params(**overrides)
 
 
 def test_bad_dt_is_refused(runtime):
@@ -836,7 +841,9 @@ def dividable_pair(count: int):
 @pytest.mark.oclgrind
 def test_kernels_on_oclgrind(oclgrind):
     count = 256
-    sim = Simulation(oclgrind, Params(count=count, max_divide_count=1), 0)  # InitParticles, InitEdges, EmitParticles
+    sim = Simulation(
+        oclgrind, network_params(count=count, max_divide_count=1), 0
+    )  # InitParticles, InitEdges, EmitParticles
     sim.step()  # UpdateEdges, SpringEdges, UpdateParticles
     sim.divide()  # GetDividableEdges (none), DivideUnconnectedParticles over all 256 slots
     assert int(sim.particle_records()["alive"].sum()) == 2
@@ -869,7 +876,7 @@ def test_kernels_on_oclgrind(oclgrind):
 
 @pytest.mark.oclgrind
 def test_divide_unconnected_particles_is_clean_at_any_size(oclgrind):
-    sim = Simulation(oclgrind, Params(count=200), 0)
+    sim = Simulation(oclgrind, network_params(count=200), 0)
     parts = np.zeros(200, PARTICLE_DTYPE)
     parts["alive"][:40:2] = 1  # 20 lone cells among dead slots: children land in slots other work-items read
     parts["position"][:40] = np.column_stack([np.arange(40) * 3.0, np.zeros(40)])
@@ -892,7 +899,7 @@ def test_book_race_in_parallel_edge_divisions_is_the_only_report(_oclgrind_runti
     Oclgrind report must be a data race in the pattern's kernel between lines marked `RACE (book)`."""
     source = KERNEL_FILE.read_text().splitlines()
     capfd.readouterr()
-    sim = Simulation(_oclgrind_runtime, Params(count=64, pattern=pattern), 0)
+    sim = Simulation(_oclgrind_runtime, network_params(count=64, pattern=pattern), 0)
     sim.load(*dividable_ring(6, 64))
     assert sim.divide() == 6
     _oclgrind_runtime.finish()
@@ -915,13 +922,13 @@ def test_book_divide_unconnected_particles_races_and_the_snapshot_does_not(_oclg
     parts["alive"][5] = 1
     parts["radius"][5] = parts["threshold"][5] = 0.5
     capfd.readouterr()
-    book = Simulation(_oclgrind_runtime, Params(count=64, variant="book"), 0)
+    book = Simulation(_oclgrind_runtime, network_params(count=64, variant="book"), 0)
     book.load(parts)
     book.divide_unconnected_particles()
     _oclgrind_runtime.finish()
     reports = oclgrind_reports(capfd.readouterr().err)
     assert reports and all("Kernel: DivideUnconnectedParticles" in r and "data race" in r for r in reports)
-    fixed = Simulation(_oclgrind_runtime, Params(count=64), 0)
+    fixed = Simulation(_oclgrind_runtime, network_params(count=64), 0)
     fixed.load(parts)
     fixed.divide_unconnected_particles()
     _oclgrind_runtime.finish()

@@ -218,13 +218,23 @@ class Simulation:
 
     def __init__(self, runtime, params: Params | None = None, seed: int = 0):
         self.runtime = runtime
-        self.params = params if params is not None else self.Params()
+        self.params = params if params is not None else self.default_params()
         if not isinstance(self.params, self.Params):
             raise TypeError(f"{type(self).__name__} needs {self.Params.__qualname__}, got {type(self.params).__name__}")
         if not isinstance(seed, int | np.integer) or seed < 0:
             raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
         self.seed = int(seed)
         self.reset()
+
+    @classmethod
+    def default_params(cls) -> Params:
+        """The Params of the first scene that runs this class (its ``Scene.defaults`` applied), else the class's."""
+        from .scenes import scenes
+
+        for scene in scenes().values():
+            if scene.simulation is cls:
+                return scene.params()
+        return cls.Params()
 
     def reset(self) -> None:
         """Back to the initial state for the current params and seed: time and step count to 0, then the

@@ -113,15 +113,9 @@ class ParticleParams(BaseParams):
 
 @dataclass(frozen=True)
 class Params(ParticleParams):
-    """The network scene (CellularGrowth.unity); its own defaults where the scene differs from ParticleOnly."""
+    """The network scenes (CellularGrowth.unity, CellularGrowthSphere.unity): the cells' fields plus the edges'.
+    Where the scene files differ from ParticleOnly's values, NETWORK_DEFAULTS and SPHERE_DEFAULTS say so."""
 
-    grow: float = param(0.25, 0.01, 1.0, live=True)
-    divide_interval: float = param(0.25, 0.02, 3.0, live=True)
-    max_divide_count: int = param(64, 1, 128, live=True)
-    drag: float = param(0.985, 0.1, 1.0, live=True)
-    limit: float = param(1.0, 0.1, 5.0, live=True)
-    repulsion: float = param(2.2, 1.0, 5.0, live=True)
-    emit_frames: int = param(0, 0, 1 << 20, live=True)
     spring: float = param(5.0, 1.0, 10.0, live=True)
     """Edge spring strength (book: spring, _Spring)."""
     pattern: str = param("closed", choices=PATTERNS, live=True)
@@ -136,7 +130,19 @@ class Params(ParticleParams):
     """Depth of a sphere impostor's surface: radius x size (correct) or the book's constant size (ParticleSphere)."""
 
 
+NETWORK_DEFAULTS = {
+    "grow": 0.25,
+    "divide_interval": 0.25,
+    "max_divide_count": 64,
+    "drag": 0.985,
+    "limit": 1.0,
+    "repulsion": 2.2,
+    "emit_frames": 0,
+}
+"""CellularGrowth.unity's values where they differ from CellularGrowthParticleOnly.unity's."""
+
 SPHERE_DEFAULTS = {
+    **NETWORK_DEFAULTS,
     "size": 1.45,
     "grow": 0.5,
     "divide_interval": 0.1,
@@ -662,6 +668,7 @@ SCENES = [
         "cellular_growth",
         Simulation,
         "Cellular growth: dividing cells joined by springs grow a closed ring or a branching tree (vol.3 ch.4)",
+        defaults=NETWORK_DEFAULTS,
         view="View",
         preview={"steps": 900, "count": 1024},
     ),
