@@ -76,11 +76,8 @@ def all_keys() -> str:
 
 
 def params_table(name: str) -> str:
-    scene = get(name)
-    rows = scene.simulation.Params.table()
+    rows = get(name).table()
     for row in rows:
-        if row["name"] in scene.defaults:
-            row["default"] = str(scene.defaults[row["name"]])
         row["name"] = f"`{row['name']}`"
     return markdown_table(rows)
 
