@@ -11,7 +11,7 @@ import numpy as np
 import pyopencl as cl
 import pyopencl.array as cla
 
-from .runtime import INCLUDE_DIR, Runtime
+from .runtime import INCLUDE_DIR, Kernel, Runtime
 
 COUNT, REFUSED = 0, 1  # slots of a pool's counter buffer (pool.h: POOL_COUNT, POOL_REFUSED)
 
@@ -93,5 +93,5 @@ def device_sizeof(runtime: Runtime, type_name: str, header: str) -> int:
     )
     program = cl.Program(runtime.context, source).build(options=[f"-I{INCLUDE_DIR}"])
     out = cla.zeros(runtime.queue, 1, np.int32)
-    cl.Kernel(program, "ugpcl_sizeof")(runtime.queue, (1,), None, out.data)
+    Kernel(runtime, cl.Kernel(program, "ugpcl_sizeof"), "ugpcl_sizeof")((1,), None, out.data)
     return int(out.get()[0])
