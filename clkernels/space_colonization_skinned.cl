@@ -59,11 +59,11 @@ __kernel void SetupAttractions(__global SkinnedAttraction* attractions, int attr
     attractions[idx].nearest = -1;
 }
 
-__kernel void Setup(__global SkinnedNode* nodes, int node_count, volatile __global int* node_pool_counter,
+__kernel void Setup(__global SkinnedNode* nodes, int slot_count, volatile __global int* node_pool_counter,
                     __global int* node_pool) {
     const int i = get_global_id(0);
-    if (i >= node_count) return;
-    pool_append_index(node_pool_counter, node_pool, node_count, i);
+    if (i >= slot_count) return;
+    pool_append_index(node_pool_counter, node_pool, slot_count, i);
     nodes[i].active = 0u;
 }
 
@@ -97,14 +97,14 @@ __kernel void Seed(const __global float* seeds, int seed_count, const __global S
 }
 
 __kernel void Search(__global SkinnedAttraction* attractions, int attraction_count, const __global SkinnedNode* nodes,
-                     int node_count, float influence_distance) {
+                     int slot_count, float influence_distance) {
     const int idx = get_global_id(0);
     if (idx >= attraction_count) return;
     SkinnedAttraction attr = attractions[idx];
     attr.found = 0u;
     if (!attr.active) return;
     float min_dist = influence_distance;
-    for (int i = 0; i < node_count; i++) {
+    for (int i = 0; i < slot_count; i++) {
         const SkinnedNode n = nodes[i];
         if (!n.active) continue;
         const float d = length(POSITION(attr) - POSITION(n));  // bind space, never `animated`
@@ -118,11 +118,11 @@ __kernel void Search(__global SkinnedAttraction* attractions, int attraction_cou
 }
 
 __kernel void Attract(const __global SkinnedAttraction* attractions, int attraction_count,
-                      const __global SkinnedNode* nodes, int node_count, float growth_distance, int repeat_guard,
+                      const __global SkinnedNode* nodes, int slot_count, float growth_distance, int repeat_guard,
                       __global float4* last_candidate, volatile __global int* candidate_counter,
                       __global SkinnedCandidate* candidates, int candidate_capacity) {
     const int idx = get_global_id(0);
-    if (idx >= node_count) return;
+    if (idx >= slot_count) return;
     const SkinnedNode n = nodes[idx];
     if (!(n.active && n.t >= 1.0f)) return;
     float3 dir = (float3)(0.0f);
@@ -177,12 +177,12 @@ __kernel void Connect(__global SkinnedNode* nodes, volatile __global int* node_p
 }
 
 __kernel void Remove(__global SkinnedAttraction* attractions, int attraction_count, const __global SkinnedNode* nodes,
-                     int node_count, float kill_distance) {
+                     int slot_count, float kill_distance) {
     const int idx = get_global_id(0);
     if (idx >= attraction_count) return;
     SkinnedAttraction attr = attractions[idx];
     if (!attr.active) return;
-    for (int i = 0; i < node_count; i++) {
+    for (int i = 0; i < slot_count; i++) {
         const SkinnedNode n = nodes[i];
         if (n.active && distance(POSITION(attr), POSITION(n)) < kill_distance) {
             attr.active = 0u;
@@ -192,9 +192,9 @@ __kernel void Remove(__global SkinnedAttraction* attractions, int attraction_cou
     }
 }
 
-__kernel void Grow(__global SkinnedNode* nodes, int node_count, float dT) {
+__kernel void Grow(__global SkinnedNode* nodes, int slot_count, float dT) {
     const int idx = get_global_id(0);
-    if (idx >= node_count) return;
+    if (idx >= slot_count) return;
     SkinnedNode n = nodes[idx];
     if (!n.active) return;
     n.t = clamp(n.t + dT * n.mass, 0.0f, 1.0f);  // book: saturate; dT = dt * growthSpeed
@@ -207,10 +207,10 @@ inline float3 transform_point(const __global float* m, float3 x) {
     return (float3)(dot(vload4(0, m), p), dot(vload4(1, m), p), dot(vload4(2, m), p));
 }
 
-__kernel void Animate(__global SkinnedNode* nodes, int node_count, const __global float* bind_poses,
+__kernel void Animate(__global SkinnedNode* nodes, int slot_count, const __global float* bind_poses,
                       const __global float* bone_matrices, int bone_count) {
     const int idx = get_global_id(0);
-    if (idx >= node_count) return;
+    if (idx >= slot_count) return;
     SkinnedNode node = nodes[idx];
     if (!node.active || node.index0 < 0 || node.index0 >= bone_count) return;
     // book: mul(mul(m, bind), float4(position, 1)): first into the bone's rest frame, then out by its current pose

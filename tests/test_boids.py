@@ -1,4 +1,4 @@
-"""Boids (vol.1 ch.3, spec 03 section 8): layout, ForceCS/IntegrateCS against numpy, rules, invariants, view."""
+"""Boids (vol.1 ch.3; docs/chapters/03-boids.md): layout, ForceCS/IntegrateCS against numpy, rules, invariants, view."""
 
 from __future__ import annotations
 
@@ -97,7 +97,8 @@ def test_boid_dtype_matches_the_device_struct(runtime):
 # {{{ kernels vs reference
 
 
-@pytest.mark.parametrize("n", [1, 255, 256, 257, 512, 1000])  # one boid, under/at/over one tile, the spec's sizes
+# one boid, under/at/over one tile, the chapter page's sizes
+@pytest.mark.parametrize("n", [1, 255, 256, 257, 512, 1000])
 @pytest.mark.parametrize("start", ["book", "spread"])
 def test_force_cs_matches_reference(runtime, n, start, seed):
     sim = make(runtime, n, seed)
@@ -108,7 +109,7 @@ def test_force_cs_matches_reference(runtime, n, start, seed):
     expected = force_reference(state["position"], state["velocity"], sim.params)
     usable = ~ambiguous_boids(state["position"], sim.params)
     assert usable.mean() > 0.97, f"too many boundary cases ({(~usable).sum()}) for a meaningful comparison"
-    # float32 sums of <= n terms against float64; the spec's tolerance (rtol 1e-4, atol 1e-5)
+    # float32 sums of <= n terms against float64; the chapter page's tolerance (rtol 1e-4, atol 1e-5)
     actual, wanted = state["force"][usable], expected[usable]
     assert np.allclose(actual, wanted, rtol=1e-4, atol=1e-5), first_mismatch(actual, wanted, 1e-4, 1e-5)
 

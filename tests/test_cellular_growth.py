@@ -1,5 +1,6 @@
-"""Cellular growth (vol.3 ch.4, spec 11 section 8): layout, UpdateParticles / UpdateEdges / SpringEdges against numpy,
-the uniform-grid search against all pairs, pool invariants, division semantics, headless CLI, views, Oclgrind."""
+"""Cellular growth (vol.3 ch.4; docs/chapters/11-cellular-growth.md, "Tests"): layout, UpdateParticles / UpdateEdges /
+SpringEdges against numpy, the uniform-grid search against all pairs, pool invariants, division semantics, headless
+CLI, views, Oclgrind."""
 
 from __future__ import annotations
 
@@ -554,7 +555,8 @@ def test_parallel_divisions_keep_the_graph_whole(runtime, pattern):
 
 
 def test_network_prototype_counts(runtime):
-    """Spec 11 section 8 prototype (P = 3 / 25 / 332 at 5 / 10 / 15 s, Closed): order of magnitude only."""
+    """The chapter page's prototype (P = 3 / 25 / 332 at 5 / 10 / 15 s, Closed): order of magnitude only
+    (docs/chapters/11-cellular-growth.md, "Tests")."""
     sim = network(runtime, count=1024)
     counts = []
     for _ in range(3):
@@ -600,7 +602,7 @@ def test_bad_dt_is_refused(runtime):
 # {{{ headless
 
 
-def test_cli_writes_the_spec_arrays(runtime, tmp_path, capsys):
+def test_cli_writes_the_chapter_page_arrays(runtime, tmp_path, capsys):
     out = tmp_path / "cg.npz"
     png = tmp_path / "cg.png"
     sets = ["--set", "count=256", "--set", "pattern=branch", "--set", "grow=1"]
@@ -705,7 +707,7 @@ def test_closed_ring_picture_is_one_connected_shape(runtime, gl):
     from scipy import ndimage
 
     sim = get("cellular_growth").create(runtime, 0, count=1024)
-    for _ in range(900):  # 15 s: the spec's picture (prototype P = 332)
+    for _ in range(900):  # 15 s: the chapter page's picture (prototype P = 332)
         sim.step()
     size = (400, 300)
     view, camera, pixels, _ = render(runtime, gl, "cellular_growth", sim, size)

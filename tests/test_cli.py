@@ -114,7 +114,7 @@ def test_list_info_and_params(capsys):
     assert code == 0 and "separate_neighborhood_radius" in out and "_SeparateNeighborhoodRadius" in out
 
 
-def test_compute_intro_npz_has_the_spec_arrays(capsys, tmp_path):
+def test_compute_intro_npz_has_the_chapter_page_arrays(capsys, tmp_path):
     out = tmp_path / "ci.npz"
     assert run(capsys, "run", "compute_intro", "--steps", "1", "--set", "int_value=3", "--out", str(out))[0] == 0
     data = np.load(out)

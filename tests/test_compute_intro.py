@@ -1,4 +1,5 @@
-"""Compute intro (vol.1 ch.2, spec 02 section 8): array sample, texture sample, dispatch semantics, view."""
+"""Compute intro (vol.1 ch.2; docs/chapters/02-compute-intro.md): array sample, texture sample, dispatch semantics,
+view."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
-"""Geometry shaders: pyramid and grass (vol.1 ch.6, spec 06 section 8): layout, grass_expand/pyramid_expand against a
-float64 numpy port of the book's geom() functions, golden blades, invariants, CLI, the GLSL shaders themselves
-(transform feedback, primitive queries, pixels), Oclgrind."""
+"""Geometry shaders: pyramid and grass (vol.1 ch.6; docs/chapters/06-grass.md): layout, grass_expand/pyramid_expand
+against a float64 numpy port of the book's geom() functions, golden blades, invariants, CLI, the GLSL shaders
+themselves (transform feedback, primitive queries, pixels), Oclgrind."""
 
 from __future__ import annotations
 
@@ -22,7 +22,8 @@ from ugpcl.scenes.grass import GRASS_PARAMS_DTYPE, MAX_BLADES, Params, PyramidPa
 
 
 def reference_plane(resolution: int):
-    """The spec's Plane: 10x10 units in XZ, (resolution+1)^2 vertices, cell (i, j) -> triangles (a, c, b), (b, c, d)."""
+    """The chapter page's Plane: 10x10 units in XZ, (resolution+1)^2 vertices, cell (i, j) -> triangles (a, c, b),
+    (b, c, d)."""
     n = resolution + 1
     pos = np.array([[i * 10.0 / resolution - 5, 0.0, j * 10.0 / resolution - 5] for j in range(n) for i in range(n)])
     uv = np.array([[i / resolution, j / resolution] for j in range(n) for i in range(n)])
@@ -232,7 +233,7 @@ def test_golden_blade(runtime):
         [0.63333, 17.5, third],
         [0.73333, 30, third],
     ]
-    np.testing.assert_allclose(pos, expected, atol=1e-5)  # the spec's five-digit numbers
+    np.testing.assert_allclose(pos, expected, atol=1e-5)  # the expected values are rounded to five digits
     colors = [(0, 0.20766, 0.33088, 1), (0, 0.47177, 0.31944, 1), (0, 0.73588, 0.30800, 1), (0, 1, 0.29655, 1)]
     np.testing.assert_allclose(col, [colors[k // 2] for k in range(7)], atol=1e-5)
     mirrored, _ = golden(runtime, rot=0.25, wind=0.0)  # the rotation map only flips the side
@@ -419,7 +420,7 @@ def project(camera, points: np.ndarray, size) -> tuple[np.ndarray, np.ndarray]:
 
 
 @pytest.mark.gl  # --png renders through EGL
-def test_run_grass_writes_the_spec_arrays_and_a_lawn(capsys, tmp_path):
+def test_run_grass_writes_the_chapter_page_arrays_and_a_lawn(capsys, tmp_path):
     out, png = tmp_path / "g.npz", tmp_path / "g.png"
     argv = ["run", "grass", "--steps", "2", "--seed", "4", "--set", "planes=2,3", "--out", str(out)]
     assert main([*argv, "--png", str(png), "--png-size", "96x72", "--mesh", str(tmp_path / "g.ply")]) == 0

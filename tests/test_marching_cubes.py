@@ -1,5 +1,6 @@
-"""Marching cubes (vol.1 ch.7, spec 07 section 8): tables, field and polygonisation against numpy and scikit-image,
-pool counters, topology and orientation, the headless CLI, the geometry-shader view, Oclgrind."""
+"""Marching cubes (vol.1 ch.7; docs/chapters/07-marching-cubes.md, "Tests"): tables, field and polygonisation against
+numpy and scikit-image, pool counters, topology and orientation, the headless CLI, the geometry-shader view,
+Oclgrind."""
 
 from __future__ import annotations
 
@@ -159,7 +160,7 @@ def area_and_volume(p: np.ndarray) -> tuple[float, float]:
 
 
 def weld(p: np.ndarray, decimals: int = 5) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices rounded to 1e-5 and merged (spec 07 section 8): (vertices, faces)."""
+    """Vertices rounded to 1e-5 and merged (docs/chapters/07-marching-cubes.md, "Tests"): (vertices, faces)."""
     vertices, inverse = np.unique(np.round(p.reshape(-1, 3).astype(np.float64), decimals), axis=0, return_inverse=True)
     return vertices, inverse.reshape(-1, 3)
 
@@ -201,7 +202,8 @@ def test_tables_have_the_books_shape_and_counts():
     counts = triangles_per_case()
     for row, count in zip(tri, counts, strict=True):
         assert (row[: 3 * count] >= 0).all() and (row[: 3 * count] < 12).all() and (row[3 * count :] == -1).all()
-    # Bourke's table has this histogram for 0..5 triangles per case (spec 07 section 3); ours must too
+    # Bourke's table has this histogram for 0..5 triangles per case (docs/chapters/07-marching-cubes.md, "What
+    # differs from the book"); ours must too
     assert np.bincount(counts).tolist() == [2, 16, 50, 80, 76, 32]
     assert counts[0] == counts[255] == 0
 
@@ -300,7 +302,7 @@ def test_mc_field_matches_reference(runtime, n, shape, t):
     sim = make(runtime, n, shape=shape, time=t)
     field = sim.field_array()
     expected = field_reference(n, shape, t)
-    # float32 exp/log/sqrt of values ~0.5 against float64: observed <= 4e-7 (spec 07: < 2e-6)
+    # float32 exp/log/sqrt of values ~0.5 against float64: observed <= 4e-7 (the chapter page: < 2e-6)
     assert np.abs(field - expected).max() < 2e-6, first_mismatch(field.ravel(), expected.ravel(), 0, 2e-6)
     for border in (0, 1, n - 1, n):  # the book's Sample returns exactly 0 on the two outer layers
         assert not field[border].any() and not field[:, border].any() and not field[:, :, border].any()
@@ -323,7 +325,7 @@ def test_polygonize_matches_reference(runtime, path, n, shape, t, normals):
     assert len(cells) > 0
     np.testing.assert_array_equal(state["tri_cell"], cells)  # sorted by cell, table order inside a cell
     assert state["tri_count"] == len(cells)
-    # float32 interpolation and object-space scaling against float64 (spec 07: 1e-5 object units)
+    # float32 interpolation and object-space scaling against float64 (the chapter page: 1e-5 object units)
     np.testing.assert_allclose(state["tri_pos"], positions, rtol=0, atol=1e-5)
     # normals: float32 differences of field values ~0.5 over one cell; observed <= 2e-5
     np.testing.assert_allclose(state["tri_nrm"], nrm, rtol=0, atol=1e-4)
@@ -352,14 +354,15 @@ def test_against_scikit_image_on_the_same_field(runtime, n, shape, t, threshold)
     assert cKDTree(b).query(a)[0].max() < 1e-4 and cKDTree(a).query(b)[0].max() < 1e-4  # same vertex sets
     (area, volume), (their_area, their_volume) = area_and_volume(ours), area_and_volume(theirs)
     # the tables fan some 4-6 sided (non-planar) polygons differently: observed area differences <= 1.2e-6 on the
-    # spheres, 1.0e-3 on the creased kaiware (the issue asks for 1%); volume <= 8e-4 (N = 32 spheres-repo; the spec's
-    # 1e-4 holds for Lorensen's table only, whose volumes are the spec's prototype values: test_prototype_values)
+    # spheres, 1.0e-3 on the creased kaiware (the issue asks for 1%); volume <= 8e-4 (N = 32 spheres-repo; the chapter
+    # page's 1e-4 holds for Lorensen's table only, whose volumes are its reference values: test_prototype_values)
     assert abs(area - their_area) / their_area < (1e-5 if shape.startswith("spheres") else 2e-3)
     assert abs(volume - their_volume) / abs(their_volume) < 1e-3
 
 
 def test_prototype_values(runtime):
-    """Spec 07 section 8's float64 prototype numbers (triangles, area and |signed volume| in grid units)."""
+    """The chapter page's float64 reference numbers (triangles, area and |signed volume| in grid units;
+    docs/chapters/07-marching-cubes.md, "Tests")."""
     for n, shape, t, count, area, volume in [
         (32, "spheres-repo", 0.0, 544, 174.59, 151.64),
         (64, "spheres-repo", 0.0, 2192, 728.48, 1297.39),
@@ -392,7 +395,7 @@ def test_vertices_lie_on_the_iso_level(runtime, n, shape, t, threshold, path):
     # on a cell edge the trilinear field is the edge's linear interpolation: threshold up to float32 rounding
     level = trilinear(state["field"].astype(np.float64), grid)
     np.testing.assert_allclose(level, threshold, atol=1e-5)
-    # and the vertex normals are unit length (spec 07: |normal| = 1 +- 1e-4)
+    # and the vertex normals are unit length (the chapter page: |normal| = 1 +- 1e-4)
     np.testing.assert_allclose(np.linalg.norm(state["tri_nrm"], axis=-1), 1.0, atol=1e-4)
 
 
@@ -505,7 +508,8 @@ def test_faces_point_outward(runtime, shape):
     assert area_and_volume(p)[1] > 0, "signed volume must be positive: (p1 - p0) x (p2 - p0) outward"
     face = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
     agree = np.einsum("ij,ij->i", face, state["tri_nrm"].mean(axis=1)) > 0
-    # spec 07: > 99%; the kaiware's min/max creases make the +-1 cell differences straddle them (observed 98.8%)
+    # the chapter page: > 99%; the kaiware's min/max creases make the +-1 cell differences straddle them
+    # (observed 98.8%)
     assert agree.mean() > (0.98 if shape == "kaiware" else 0.99), (
         f"only {agree.mean():.3f} of face normals agree with the gradient normals"
     )

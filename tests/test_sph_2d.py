@@ -1,5 +1,5 @@
-"""SPH fluid 2D (vol.1 ch.5, spec 05 section 8): layout, the four kernels against numpy, physics invariants, the grid
-variant against all pairs, headless CLI, view, Oclgrind."""
+"""SPH fluid 2D (vol.1 ch.5; docs/chapters/05-sph-2d.md, "Tests"): layout, the four kernels against numpy, physics
+invariants, the grid variant against all pairs, headless CLI, view, Oclgrind."""
 
 from __future__ import annotations
 
@@ -88,7 +88,8 @@ def integrate_reference(position, velocity, acceleration, dt: float, p: Params, 
 
 
 def scene_params(n: int, **overrides) -> Params:
-    """The scene's values with the disc shrunk to keep its number density: ball 5 sqrt(N / 8192) (spec 05 s.8)."""
+    """The scene's values with the disc shrunk to keep its number density: ball 5 sqrt(N / 8192)
+    (docs/chapters/05-sph-2d.md, "Tests")."""
     return Params(particle_num=n, ball_radius=5.0 * math.sqrt(n / 8192), **overrides)
 
 
@@ -121,13 +122,13 @@ def test_particle_dtype_matches_the_device_struct(runtime):
 # {{{ kernels vs reference
 
 
-@pytest.mark.parametrize("n", [2, 255, 256, 257, 1000])  # smallest, under/at/over one work-group, the spec's N
+@pytest.mark.parametrize("n", [2, 255, 256, 257, 1000])  # smallest, under/at/over one work-group, the chapter page's N
 def test_density_cs_matches_reference(runtime, n, seed):
     sim = moving(runtime, n, seed, frames=2)
     sim.density_cs()
     expected = density_reference(sim.state()["position"], sim.params)
     actual = sim.density.get()
-    # float32 sums of ~80 terms of one sign against float64: observed ~1e-6; the spec's rtol 1e-5
+    # float32 sums of ~80 terms of one sign against float64: observed ~1e-6; the chapter page's rtol 1e-5
     assert np.allclose(actual, expected, rtol=1e-5, atol=1e-6 * expected.max()), first_mismatch(
         actual, expected, 1e-5, 0
     )
@@ -140,7 +141,7 @@ def test_pressure_cs_matches_reference(runtime, seed):
     expected = pressure_reference(sim.density.get(), sim.params)
     actual = sim.pressure.get()
     assert (expected > 0).sum() > 100, "the state should be compressed somewhere"
-    # gamma = 7 multiplies the float32 rounding of rho / rho0 by 7: the spec's rtol 1e-4
+    # gamma = 7 multiplies the float32 rounding of rho / rho0 by 7: the chapter page's rtol 1e-4
     assert np.allclose(actual, expected, rtol=1e-4, atol=1e-6), first_mismatch(actual, expected, 1e-4, 1e-6)
 
 
@@ -171,7 +172,7 @@ def test_force_cs_matches_reference(runtime, n, variant, seed):
         state["position"], state["velocity"], sim.density.get(), sim.pressure.get(), sim.params, sim.params.min_density
     )
     actual = read_force(sim)
-    # float32 sums of terms of both signs: the spec's |a - a_ref| <= 1e-4 max |a_ref|
+    # float32 sums of terms of both signs: the chapter page's |a - a_ref| <= 1e-4 max |a_ref|
     atol = 1e-4 * np.abs(expected).max()
     assert np.allclose(actual, expected, rtol=0, atol=atol), first_mismatch(actual, expected, 0, atol)
 
@@ -223,7 +224,7 @@ def test_lattice_density_is_the_analytic_lattice_sum(runtime):
     grid = np.stack(np.meshgrid(k, k, indexing="ij"), axis=-1).reshape(-1, 2)
     sim = Simulation(runtime, Params(particle_num=len(grid)), 0)
     # centred on the origin (DensityCS ignores the box): small coordinates keep float32 rounding of the positions
-    # below the spec's 1e-6 spread (around x = 8 it alone gives ~1.3e-6)
+    # below the chapter page's 1e-6 spread (around x = 8 it alone gives ~1.3e-6)
     sim.set_particles(grid * spacing)
     sim.density_cs()
     density = sim.density.get()
@@ -325,7 +326,7 @@ def test_long_run_falls_and_spreads_into_a_layer(runtime, variant, search):
     state = sim.state()
     x = state["position"]
     assert np.isfinite(x).all() and np.isfinite(state["velocity"]).all()
-    # numpy prototype: overshoot <= 0.16 through the penalty walls; the spec allows 0.5
+    # numpy prototype: overshoot <= 0.16 through the penalty walls; the chapter page allows 0.5
     assert (x >= -0.5).all() and (x <= np.asarray(sim.params.range) + 0.5).all()
     assert x[:, 1].max() < 4.5, "the fluid should have fallen into a layer"
     assert np.ptp(x[:, 0]) > 12, "the fluid should have spread over the floor"
@@ -448,7 +449,7 @@ def test_dt_is_capped_by_max_allowable_timestep(runtime):
 # {{{ headless CLI
 
 
-def test_cli_run_writes_the_spec_arrays(capsys, tmp_path):
+def test_cli_run_writes_the_chapter_page_arrays(capsys, tmp_path):
     out, png = tmp_path / "sph.npz", tmp_path / "sph.png"
     argv = [
         "run",

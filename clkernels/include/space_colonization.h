@@ -69,10 +69,11 @@ typedef struct {
 // (docs/chapters/12-space-colonization.md, "What differs from the book").
 #define MIN_DIRECTION 1e-12f
 
-// The repeat guard (ugpcl, off by default): true when `candidate` repeats the last one this node emitted, or sits on
-// the node itself. Opposite attractions cancel, the mean direction is ~0 and the candidate lands on its parent; the
-// copy is never closer to the attractions, so either the parent emits it again every step, or (the copy winning
-// the distance tie) the copy does, and the next copy, ... (docs/chapters/12-space-colonization.md).
+// The repeat guard (ugpcl, on by default; `--set repeat_guard=false` is the book): true when `candidate` repeats
+// the last one this node emitted, or sits on the node itself. Opposite attractions cancel, the mean direction is ~0
+// and the candidate lands on its parent; the copy is never closer to the attractions, so either the parent emits it
+// again every step, or (the copy winning the distance tie) the copy does, and the next copy, ...
+// (docs/chapters/12-space-colonization.md).
 // `last.w` is 1 once the node emitted.
 inline bool repeats(float4 last, float3 node, float3 candidate, float growth_distance) {
     const float tolerance2 = (1e-3f * growth_distance) * (1e-3f * growth_distance);

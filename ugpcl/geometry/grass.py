@@ -1,8 +1,10 @@
-"""CPU side of vol.1 ch.6 (spec 06): the meshes the geometry shaders run on, the noise maps, the plane field.
+"""CPU side of vol.1 ch.6 (docs/chapters/06-grass.md): the meshes the geometry shaders run on, the noise maps,
+the plane field.
 
 * ``plane_mesh``: Unity's built-in Plane (10x10 units in local XZ, normal +Y, UV 0..1) with ``resolution`` cells
   per side (Unity's has 10). Cell (i, j) with corners a=(i,j), b=(i+1,j), c=(i,j+1), d=(i+1,j+1) gives triangles
-  (a, c, b) and (b, c, d) (spec 06 section 3), so the blade direction p2 - p0 is +X for one and +Z for the other.
+  (a, c, b) and (b, c, d) (ours: Unity's order is unknown; docs/chapters/06-grass.md, "What differs from the
+  book"), so the blade direction p2 - p0 is +X for one and +Z for the other.
 * ``quad_mesh``: Unity's built-in Quad (XY plane, [-0.5, 0.5]^2, front face toward -Z), triangles (0,3,1), (3,0,2).
 * ``noise_maps``: seeded, tileable fbm value noise standing in for HeightMap.png, Rotation.png and Wind.jpg (which
   cannot be shipped); each map's values are ranked onto a Beta distribution with the original's mean and std.
@@ -33,7 +35,8 @@ LERP_THIRDS = (0.0, 0.33333, 0.66666, 1.0)
 @dataclass(frozen=True)
 class MapSpec:
     """How one stand-in noise map is made: size after Unity's 512 import limit, lattice cells of the coarsest
-    octave (x, y), and the measured statistics of the book's texture it replaces (spec 06 section 3)."""
+    octave (x, y), and the measured statistics of the book's texture it replaces (docs/chapters/06-grass.md,
+    "What differs from the book")."""
 
     shape: tuple[int, int]
     cells: tuple[int, int]

@@ -1,5 +1,5 @@
 """A skinned figure a Python user can run without Unity, and the volume sampler that fills it with points (vol.4
-ch.1 section 1.4; spec 12 section 4 "Skinned inputs without Unity").
+ch.1 section 1.4; docs/chapters/12-space-colonization.md, "What differs from the book").
 
 The book grows branches inside a mixamo character ("Samba Dancing" on human_male_700) whose volume the VolumeSampler
 package turned into a point cloud. Here:
@@ -73,7 +73,8 @@ CAPSULES = (  # (start, end, radius) of each bone's capsule at rest
     ((-0.10, 0.93, 0.0), (-0.10, 0.50, 0.0), 0.075),
     ((-0.10, 0.50, 0.0), (-0.10, 0.07, 0.0), 0.055),
 )
-"""Torso 0.14, head 0.11, upper arm 0.05, forearm 0.04, thigh 0.075, shin 0.055 (spec 12)."""
+"""Torso 0.14, head 0.11, upper arm 0.05, forearm 0.04, thigh 0.075, shin 0.055
+(docs/chapters/12-space-colonization.md, "What differs from the book")."""
 CAPSULE_SIDES, CAPSULE_RINGS = 16, 4
 """Mesh resolution: sides around, rings per half sphere (plus one pole each)."""
 HEIGHT = 1.8

@@ -1,5 +1,6 @@
 """Space colonization on the CPU in numpy (float64): the attraction clouds, the blog's tree, the book's GPU step,
-and the tube mesh of a grown tree (Unity Graphics Programming vol.4 ch.1; spec 12 sections 4, 5 and 7).
+and the tube mesh of a grown tree (Unity Graphics Programming vol.4 ch.1 sections 1.2-1.3 and
+B. Olij's blog post; docs/chapters/12-space-colonization.md).
 
 * ``BlogTree``: B. Olij's "Space Colonization Algorithm Part 1" (blog, 2014) as written: vertex 0 at the origin,
   each attraction point remembers its closest vertex and compares only the vertices added since the last iteration,
@@ -10,8 +11,9 @@ and the tube mesh of a grown tree (Unity Graphics Programming vol.4 ch.1; spec 1
 * ``sphere_cloud`` (the book's ``GenerateSphereAttractions``), ``hemisphere_cloud`` (the blog's generator),
   ``box_cloud``; ``tube_mesh`` (capsules for ``--mesh``).
 
-Both algorithms share ugpcl's two guards against the trap the book and the blog both have (spec 12 section 10):
-opposite attractions cancel, the mean direction is ~0 and a node regrows the same point forever.
+Both algorithms share ugpcl's two guards against the trap the book and the blog both have
+(docs/chapters/12-space-colonization.md, "What differs from the book"): opposite attractions cancel, the mean
+direction is ~0 and a node regrows the same point forever.
 ``repeat_guard`` stops a node repeating its last growth; the blog loop also stops when an iteration grows nothing new.
 """
 

@@ -1,9 +1,9 @@
-"""Boids on the GPU: Reynolds flocking of N boids in a box (vol.1 ch.3; spec 03).
+"""Boids on the GPU: Reynolds flocking of N boids in a box (vol.1 ch.3; docs/chapters/03-boids.md).
 
 Kernel order per step: ``ForceCS`` (steering forces against all N boids through ``__local`` tiles) then
 ``IntegrateCS`` (wall avoidance, speed limit, explicit Euler). ``variant=naive`` swaps ForceCS for
 ``ForceCS_naive``, the same sums without local memory; ``variant=grid`` for ``ForceCS_grid``, which visits only
-the boids in the 27 uniform-grid cells around each boid (the chapter's summary suggests it; spec section 9).
+the boids in the 27 uniform-grid cells around each boid (the chapter's summary, vol.1 ch.3 section 3.5, suggests it).
 
 Differences from the book: N need not be a multiple of the block size (the book dispatches floor(N/256) groups
 and reads past the buffer otherwise); a rule whose mean direction is the zero vector steers by 0 instead of
@@ -78,7 +78,8 @@ class Simulation(BaseSimulation):
     def _reset(self) -> None:
         p, rt = self.params, self.runtime
         self.n = p.max_object_num
-        # largest power of two <= simulation_block_size that the device runs ForceCS with (spec 03 section 5)
+        # largest power of two <= simulation_block_size that the device runs ForceCS with
+        # (docs/chapters/03-boids.md, "What differs from the book")
         self.block_size, self.program = rt.fitted_program(
             "boids", ("ForceCS",), p.simulation_block_size, define="SIMULATION_BLOCK_SIZE"
         )

@@ -1,5 +1,6 @@
 """GPU-based cellular growth: cells that grow, repel and divide, alone or joined into a network of springs
-(Unity Graphics Programming vol.3 ch.4, after iGeo's "Cell Division and Growth Algorithm 1"; spec 11).
+(Unity Graphics Programming vol.3 ch.4, after iGeo's "Cell Division and Growth Algorithm 1";
+docs/chapters/11-cellular-growth.md).
 
 Three scenes, one kernel file (``clkernels/cellular_growth.cl``):
 
@@ -155,7 +156,7 @@ SPHERE_DEFAULTS = {
     "max_link": 3,
     "render": "spheres",
 }
-"""CellularGrowthSphere.unity's values (spec 11 section 5)."""
+"""CellularGrowthSphere.unity's values (docs/chapters/11-cellular-growth.md, "Parameters")."""
 
 
 # }}}

@@ -1,4 +1,5 @@
-"""Getting started with compute: the array sample and the texture sample (vol.1 ch.2; spec 02).
+"""Getting started with compute: the array sample and the texture sample (vol.1 ch.2 sections 2.2 and 2.3;
+docs/chapters/02-compute-intro.md).
 
 Array sample (SimpleComputeShader_Array): ``KernelFunction_A`` writes ``local id * int_value`` into a 4-int
 buffer with one group of 4 work-items, the host reads it back, ``KernelFunction_B`` adds 1 in place, the host
@@ -216,7 +217,8 @@ class Simulation(BaseSimulation):
 
 
 LOCAL_SHAPES = ((8, 8), (16, 16), (32, 8), (64, 1), (256, 1), (1, 64))
-"""numthreads shapes compared by the bench (spec 02 section 9)."""
+"""numthreads shapes compared by the bench (vol.1 ch.2 section 2.4.2, "Tips for specifying the number of threads
+efficiently")."""
 
 
 def bench(runtime, sizes=None) -> list[dict]:

@@ -1,4 +1,4 @@
-"""Geometry shaders: the simple pyramid sample and the grass shader (vol.1 ch.6; spec 06).
+"""Geometry shaders: the simple pyramid sample and the grass shader (vol.1 ch.6; docs/chapters/06-grass.md).
 
 The chapter has no compute shader. Its two samples are geometry shaders, ported to GLSL in ``viewer/shaders/``
 (``grass_pyramid.*``: every triangle of a Quad becomes a triangular pyramid; ``grass.*``: every triangle of a
@@ -61,7 +61,7 @@ MAX_BLADES = 1 << 22
 """Cap on planes x triangles per plane: 4M blades = 28M vertices, ~800 MB of positions and colours."""
 
 QUAD_SCALE = 5.0
-"""Both quads of the pyramid scene are 5x5 units (spec 06 section 6)."""
+"""Both quads of the pyramid scene are 5x5 units (docs/chapters/06-grass.md, "What differs from the book")."""
 QUAD_X = 4.5
 """The plain quad sits at x = -4.5, the geometry-shader quad at x = +4.5."""
 QUAD_EULER = (90.0, 35.0)
@@ -109,7 +109,7 @@ class Params(BaseParams):
     wind_time_scale: float = param(0.05, 0.0, 1e3, live=True)
     """Sway phase per second: the book's sin(_Time) keeps only _Time.x = t/20 (faithful 0.05; 1 sways visibly)."""
     start_time: float = param(0.0, -1e6, 1e6, live=True)
-    """Shader time at step 0, seconds (Unity's Time.time); each step adds dt (the spec's --time)."""
+    """Shader time at step 0, seconds (Unity's Time.time); each step adds dt (command line: --set start_time=T)."""
     backend: str = param("opencl", choices=("opencl", "numpy"))
     """Who runs the geometry stage headless: the grass_expand kernel or the numpy port."""
 

@@ -1,13 +1,15 @@
-"""SPH fluid 2D: weakly compressible SPH in a 16 x 9 box (vol.1 ch.5, "Fluid simulation by the SPH method"; spec 05).
+"""SPH fluid 2D: weakly compressible SPH in a 16 x 9 box (vol.1 ch.5, "Fluid simulation by the SPH method";
+docs/chapters/05-sph-2d.md).
 
 One step = one frame = ``iterations`` sub-steps of dt = min(max_allowable_timestep, frame dt) (book: Update), each
 running the book's RunFluidSolver: ``DensityCS`` (Poly6, self excluded) -> ``PressureCS`` (Tait, gamma 7) ->
 ``ForceCS`` (Spiky pressure gradient with the mean pressure, viscosity Laplacian, divided by the own density) ->
 ``IntegrateCS`` (mouse push, penalty walls, gravity, symplectic Euler) -> swap of the particle ping-pong pair.
 
-``search=grid`` (spec 05 section 9) sorts the particles by cell with the shared ``ugpcl.grid.UniformGrid`` before
-each sub-step and runs ``DensityCS_grid`` / ``ForceCS_grid``: the same per-pair maths over the 3x3 cells around each
-particle, equal to the book's all-pairs loops up to summation order.
+``search=grid`` (the neighbour search the book leaves out for simplicity: vol.1 ch.5 section 5.4.3, after listing
+5.5) sorts the particles by cell with the shared ``ugpcl.grid.UniformGrid`` before each sub-step and runs
+``DensityCS_grid`` / ``ForceCS_grid``: the same per-pair maths over the 3x3 cells around each particle, equal to
+the book's all-pairs loops up to summation order.
 
 Differences from the book: N need not be a multiple of 1024 (the global size is padded, kernels guard i < N); the
 three divisions by zero that give NaN in the original are guarded (coincident pair, isolated particle of density 0,
@@ -76,7 +78,7 @@ class Params(BaseParams):
     """Push per unit of depth inside the mouse radius, 1/s^2 (book: the literal 100 in IntegrateCS)."""
     mouse: tuple[float, float, int] = param((8.0, 4.5, 0), live=True)
     """Scripted mouse for headless runs: hold the button at (x, y) for the first N frames after reset (0: never;
-    spec: --mouse x,y,frames)."""
+    --set mouse=x,y,frames)."""
     start: str = param("ball", choices=("ball", "dam_break"))
     """Initial particles: uniform in the centred disc (book), or the same area as a column against the left wall."""
     variant: str = param("fixed", choices=("fixed", "book"), live=True)

@@ -49,7 +49,8 @@ class View(BaseView):
         self.mean_density = 0.0
 
     def _rect(self) -> tuple[float, float, float, float]:
-        """The box plus a margin of range.y / 9 (the spec's camera: half-height 5.5 around (8, 4.5))."""
+        """The box plus a margin of range.y / 9 (the book scene's camera: half-height 5.5 around (8, 4.5);
+        docs/chapters/05-sph-2d.md, "What differs from the book")."""
         w, h = self.sim.params.range
         margin = h / 9.0
         return (-margin, w + margin, -margin, h + margin)
