@@ -1,45 +1,60 @@
-// stable_fluids_2d.cl: Unity Graphics Programming vol.1 ch.4, "Fluid simulation by lattice method" (spec 04, 2D).
-// Jos Stam, "Stable Fluids", SIGGRAPH 1999: implicit diffusion, projection, semi-Lagrangian advection on a grid.
-// The original is Assets/StableFluids/ComputeShaders/Solver2D.compute; vol.4 ch.6 (Tessellation) drives a
-// stripped copy of it, which is this file run without pressure sweeps and without AdvectVelocity (spec 17).
+// stable_fluids_2d.cl: Unity Graphics Programming vol.1 ch.4, "Fluid simulation by lattice method" (the 2D solver;
+// docs/chapters/04-stable-fluids-2d.md). Jos Stam, "Stable Fluids", SIGGRAPH 1999: implicit diffusion, projection,
+// semi-Lagrangian advection on a grid. The original is Assets/StableFluids/ComputeShaders/Solver2D.compute; vol.4
+// ch.6 (Tessellation) drives a stripped copy of it, which is this file run without pressure sweeps and without
+// AdvectVelocity (docs/chapters/17-tessellation.md).
 //
 // Fields: row-major w x h grids, cell (x, y) at index y*w + x, row y = 0 at the bottom (as the book's uv).
 //   velocity float2 (u, v); density float; source float4 (velocity source xy, density source z);
 //   solver float4 (u, v, density, 1) for the renderer;
 //   prev float4, multiplexed as the book does: xy = velocity source or copy of velocity, z = density source or copy
 //   of density; during the projection x = p and y = div (z kept: later kernels read the leftovers).
-// Kernels, in host call order per step (B(f) = SetBoundary<f> launched twice: BOUNDARY_EDGES, BOUNDARY_CORNERS):
+// Boundary rules (the book's SetBoundary* helpers): a wall cell copies its inner neighbour (the cell one step
+//   inwards, clamp(x, 1, w-2), clamp(y, 1, h-2)); the velocity's wall cell negates the inner cell's normal component
+//   and keeps its own tangential one; a corner is the mean of the two edge cells beside it. "+B(f)" below: the
+//   kernel applies f's rule itself, as the book calls SetBoundary* at the end of each kernel, but without reading
+//   cells other work-items write: extra work-groups past the grid's rows take one wall cell per work-item and
+//   compute the kernel's value at the cells the rule reads (the inner cell, and for a velocity wall the cell itself
+//   and, at a corner, the two edge cells beside it) from the kernel's inputs; the grid's groups compute the interior
+//   (see wall_item). Every value is the one a sweep followed by an edges launch and a corners launch gives, bit for
+//   bit.
+// Kernels, in host call order per step, and in this file's order:
 //   AddSourceBrush       -> source: f = clamp(1 - |(uv - c)/r|^2, 0, 1), source = (m.x*f, m.y*f, f, 0) (brush held)
 //   velocity step (skipped when density_only):
 //   AddSourceVelocity    velocity += s.xy*velocityCoef*dt, prev.xy = the same amount           (own cell, in place)
-//   DiffuseVelocity      velocity_in, prev.xy -> velocity_out: one Jacobi sweep (host: gs_iterations times), B(Velocity)
-//   ProjectStep1         velocity -> prev = (0, div, prev.z, 0) (own cell of prev, in place); B(Divergence), B(DivPositive)
-//   ProjectStep2         prev_in -> prev_out: one Jacobi sweep of the Poisson equation for p = prev.x; B(DivPositive)
-//   ProjectStep3         velocity -= 0.5*(p(+1) - p(-1))*(w | h) per axis (own cell, in place); B(Velocity)
+//   DiffuseVelocity      velocity_in, prev.xy -> velocity_out: one Jacobi sweep (host: gs_iterations times)
+//                        +B(Velocity)
+//   ProjectStep1         velocity -> prev = (0, div, prev.z, 0) (own cell of prev, in place) +B(Divergence); p = 0
+//                        everywhere, so B(DivPositive) would change nothing
+//   ProjectStep2         prev_in -> prev_out: one Jacobi sweep of the Poisson equation for p = prev.x +B(DivPositive)
+//   ProjectStep3         velocity -= 0.5*(p(+1) - p(-1))*(w | h) per axis (own cell, in place)
+//   SetBoundaryVelocity  after ProjectStep3 (in place: its walls would read cells other work-items write)
 //   SwapVelocity         prev.xy = velocity (a one-way copy despite the name, as the book)
-//   AdvectVelocity       prev.xy -> velocity: back-trace by the cell's own prev.xy, bilinear; B(Velocity)
-//   ProjectStep1..3      again
+//   AdvectVelocity       prev.xy -> velocity: back-trace by the cell's own prev.xy, bilinear +B(Velocity)
+//   ProjectStep1..3, SetBoundaryVelocity again
 //   density step:
 //   AddSourceDensity     density += s.z*densityCoef*dt, prev.z = the same amount               (own cell, in place)
-//   DiffuseDensity       density_in, prev.z -> density_out: one Jacobi sweep (gs_iterations times), B(Density)
+//   DiffuseDensity       density_in, prev.z -> density_out: one Jacobi sweep (gs_iterations times) +B(Density)
 //   SwapDensity          prev.z = density
-//   AdvectDensity        velocity, prev.z -> density: back-trace by the current velocity, bilinear; B(Density)
-//   AdvectDensityFromExt source.xy, prev.z -> density: back-trace by the brush velocity (density_only); B(Density)
+//   AdvectDensity        velocity, prev.z -> density: back-trace by the current velocity, bilinear +B(Density)
+//   AdvectDensityFromExt source.xy, prev.z -> density: back-trace by the brush velocity (density_only) +B(Density)
 //   Draw                 velocity, density -> solver = (u, v, density, 1)
-//   SetBoundaryDensity / SetBoundaryVelocity / SetBoundaryDivergence (prev.y) / SetBoundaryDivPositive (prev.x):
-//     BOUNDARY_EDGES   global 2*(w-2) + 2*(h-2): an edge cell copies its inner neighbour (velocity: negates the
-//                      normal component of the inner cell and keeps its own tangential one)
-//     BOUNDARY_CORNERS global 4: a corner = mean of its two edge neighbours
-//   The edges launch reads only interior cells and the corners launch only edge cells, so no cell is read while it
-//   is written (the book applies these rules in place inside every producer kernel, racing with its neighbours).
+//   SetBoundaryDensity, SetBoundaryDivergence (prev.y), SetBoundaryDivPositive (prev.x): the rules on their own
+//                        (Simulation.set_boundary_*; step() applies them inside the kernels above)
+//   The SetBoundary* kernels are one launch of 2*(w-2) + 2*(h-2) + 4 work-items (edges, then corners): an edge
+//   reads its inner cell, a corner the interior cell both its edge neighbours copy, and SetBoundaryVelocity's edges
+//   write only their normal component while its corners read only the edges' tangential ones (float pointers, so no
+//   byte is read while another work-item writes it).
 // Build defines: THREAD_X, THREAD_Y = work-group shape of the grid kernels (book: numthreads(32, 32, 1));
-//   BOOK_VARIANT = 1: the original's divergence -0.5*du/w + dv/h (operator precedence), a back-trace that is never
-//   clamped (its clamp() discards the result) and the divergence corner (0, h-1) reading (1, h-2) (a typo);
-//   0: Stam's -0.5*(du/w + dv/h), back-trace clamped to [0.5, n - 1.5], the corner typo fixed.
+//   BOOK_VARIANT = 1: the original's divergence -0.5*du/w + dv/h (operator precedence) and a back-trace that is
+//   never clamped (its clamp() discards the result); 0: Stam's -0.5*(du/w + dv/h), back-trace clamped to
+//   [0.5, n - 1.5]. The original's divergence corner (0, h-1) reads (1, h-2) instead of (1, h-1) (a typo); the
+//   rule here reads (1, h-2), which (1, h-1) copies, so the typo changes no value in either variant.
 // Differences from the book: one Jacobi sweep per launch from a read buffer into a write buffer (the book's in-place
-// Gauss-Seidel races), global sizes rounded up to the work-group shape and guarded (the book drops partial groups),
-// every neighbour read through ld*() (zero outside the grid, as D3D's out-of-range texture reads), float32 fields.
-// Grids must be at least 3 x 3 (the boundary rules need an interior).
+// Gauss-Seidel races), boundary values computed from the kernel's inputs (the book's in-kernel SetBoundary* calls
+// read neighbours other work-items are writing), global sizes rounded up to the work-group shape and guarded (the
+// book drops partial groups), every read that may fall outside the grid through ld*() (zero there, as D3D's
+// out-of-range texture reads), float32 fields. Grids must be at least 3 x 3 (the boundary rules need an interior).
 
 #ifndef THREAD_X
 #error "build with -D THREAD_X=<work-group x> -D THREAD_Y=<work-group y> (book: 32, 32)"
@@ -51,8 +66,8 @@
 #error "build with -D BOOK_VARIANT=1 (the original's arithmetic) or 0 (Stam's equations)"
 #endif
 
-#define BOUNDARY_EDGES 0
-#define BOUNDARY_CORNERS 1
+// Helpers are always inlined: PoCL keeps a large helper that is called twice as a call per work-item.
+#define INLINE inline __attribute__((always_inline))
 
 #define GRID_KERNEL __kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, 1)))
 // One work-item per cell; padding items of the rounded-up global size leave at once (no kernel has a barrier).
@@ -62,25 +77,94 @@
     if (x >= (w) || y >= (h)) return;     \
     const int i = y * (w) + x;
 
-// {{{ zero-padded reads: D3D returns 0 for a texture read outside the grid; OpenCL has no bounds check
+// {{{ neighbour reads: D3D returns 0 for a texture read outside the grid; OpenCL has no bounds check. `inside` (a
+// literal at every call) says that (x, y) is known to lie in the grid (a neighbour of an interior cell): then the
+// test is folded away and the read is a plain load.
 
-inline float ld1(const __global float* f, int x, int y, int w, int h) {
-    return (x >= 0 && x < w && y >= 0 && y < h) ? f[y * w + x] : 0.0f;
+INLINE float ld1(const __global float* f, int x, int y, int w, int h, bool inside) {
+    return (inside || (x >= 0 && x < w && y >= 0 && y < h)) ? f[y * w + x] : 0.0f;
 }
 
-inline float2 ld2(const __global float2* f, int x, int y, int w, int h) {
-    return (x >= 0 && x < w && y >= 0 && y < h) ? f[y * w + x] : (float2)(0.0f);
+INLINE float2 ld2(const __global float2* f, int x, int y, int w, int h, bool inside) {
+    return (inside || (x >= 0 && x < w && y >= 0 && y < h)) ? f[y * w + x] : (float2)(0.0f);
 }
 
-inline float4 ld4(const __global float4* f, int x, int y, int w, int h) {
-    return (x >= 0 && x < w && y >= 0 && y < h) ? f[y * w + x] : (float4)(0.0f);
+INLINE float4 ld4(const __global float4* f, int x, int y, int w, int h, bool inside) {
+    return (inside || (x >= 0 && x < w && y >= 0 && y < h)) ? f[y * w + x] : (float4)(0.0f);
+}
+
+// }}}
+
+// {{{ the boundary rules (the book's SetBoundary* helpers), shared by the kernels that apply them
+
+// The cell a wall cell copies: one step inwards on each axis where (x, y) is on a wall; (x, y) itself inside.
+INLINE int2 inner_cell(int x, int y, int w, int h) { return (int2)(clamp(x, 1, w - 2), clamp(y, 1, h - 2)); }
+
+INLINE bool is_corner(int x, int y, int2 in) { return x != in.x && y != in.y; }
+
+// 1 <= x <= w-2 and 1 <= y <= h-2, in two unsigned comparisons (padding work-items fail it too).
+INLINE bool is_interior(int x, int y, int w, int h) {
+    return (uint)(x - 1) < (uint)(w - 2) && (uint)(y - 1) < (uint)(h - 2);
+}
+
+// SetBoundaryDensity / Divergence / DivPositive at (x, y), `v` = the value of its inner cell: a wall cell copies v;
+// a corner is the mean of the two edge cells beside it, which both copy v (the sum and the halving as the book's).
+INLINE float wall_copy(int x, int y, int2 in, float v) { return is_corner(x, y, in) ? 0.5f * (v + v) : v; }
+
+// SetBoundaryVelocity at a wall cell (x, y): own = its value, inner = its inner cell's, row_x = the x component of the
+// edge cell (in.x, y) beside a corner, column_y = the y component of the edge cell (x, in.y) (both unused off corners).
+INLINE float2 wall_velocity(int x, int y, int2 in, float2 own, float2 inner, float row_x, float column_y) {
+    if (y == in.y) return (float2)(-inner.x, own.y);  // left or right wall: the normal (x) component mirrored
+    if (x == in.x) return (float2)(own.x, -inner.y);  // bottom or top wall: the normal (y) component mirrored
+    // a corner: the mean of the row's edge cell (row_x, -inner.y) and the column's (-inner.x, column_y)
+    return 0.5f * ((float2)(row_x, -inner.y) + (float2)(-inner.x, column_y));
+}
+
+// Wall cell k -> (x, y): the left column, right column, bottom row and top row without their ends (2(h-2) + 2(w-2)
+// edge cells), then the corners (0,0), (0,h-1), (w-1,0), (w-1,h-1). 0 past the last.
+INLINE int boundary_cell(int k, int w, int h, int* x, int* y) {
+    const int rows = h - 2, cols = w - 2;
+    if (k < rows) { *x = 0; *y = k + 1; return 1; }
+    k -= rows;
+    if (k < rows) { *x = w - 1; *y = k + 1; return 1; }
+    k -= rows;
+    if (k < cols) { *x = k + 1; *y = 0; return 1; }
+    k -= cols;
+    if (k < cols) { *x = k + 1; *y = h - 1; return 1; }
+    k -= cols;
+    if (k < 4) { *x = (k < 2) ? 0 : w - 1; *y = (k % 2 == 0) ? 0 : h - 1; return 1; }
+    return 0;
+}
+
+// The kernels that set walls themselves (+B in the header) are launched with extra rows of work-groups past the
+// grid's (Simulation._configure: as many as the 2(w-2) + 2(h-2) + 4 wall cells fill): the grid's groups compute the
+// interior cells and leave the walls alone; work-item k of the extra groups, counted group by group, sets wall cell
+// k, and groups past the last wall cell leave at once. A group thus runs one branch for all its work-items, and the
+// interior's neighbour reads need no bounds test: PoCL runs those groups as fast as a kernel without walls.
+INLINE bool is_wall_group(int h) { return get_group_id(1) * get_local_size(1) >= h; }
+
+INLINE int wall_item(int w, int h, int* x, int* y) {
+    const int size = get_local_size(0) * get_local_size(1);
+    const int grid_rows = (h + get_local_size(1) - 1) / get_local_size(1);  // the grid's rows of groups
+    const int group = (get_group_id(1) - grid_rows) * get_num_groups(0) + get_group_id(0);
+    if (group * size >= 2 * w + 2 * h - 4) return 0;  // a group past the last wall cell: all its work-items leave
+    return boundary_cell(group * size + get_local_id(1) * get_local_size(0) + get_local_id(0), w, h, x, y);
+}
+
+// The copy rule on one float per cell, `stride` floats apart from `offset` (density: 1, 0; prev.x: 4, 0; prev.y: 4, 1),
+// one work-item per wall cell. Every work-item reads only an interior cell and writes only its own wall cell.
+INLINE void set_boundary_copy(__global float* f, int stride, int offset, int w, int h) {
+    int x, y;
+    if (!boundary_cell(get_global_id(0), w, h, &x, &y)) return;  // padding of the rounded-up global size
+    const int2 in = inner_cell(x, y, w, h);
+    f[(y * w + x) * stride + offset] = wall_copy(x, y, in, f[(in.y * w + in.x) * stride + offset]);
 }
 
 // }}}
 
 // {{{ back-trace (AdvectVelocity, AdvectDensity): the point a cell's content came from, in cells
 
-inline float2 back_trace(int x, int y, float2 velocity, float dfdt, int w, int h) {
+INLINE float2 back_trace(int x, int y, float2 velocity, float dfdt, int w, int h) {
     float2 b = (float2)((float)x - dfdt * velocity.x, (float)y - dfdt * velocity.y);
 #if BOOK_VARIANT
     // The book calls clamp(x, 0.5, w + 0.5) and drops the result: the back-trace may leave the grid and the
@@ -92,6 +176,28 @@ inline float2 back_trace(int x, int y, float2 velocity, float dfdt, int w, int h
     b = clamp(b, (float2)(0.5f), (float2)((float)w - 1.5f, (float)h - 1.5f));
 #endif
     return b;
+}
+
+// Bilinear interpolation of prev.xy and of prev.z at the back-traced point b. Stam's clamp keeps the 4 taps in the
+// grid (floor(b) in [0, n-2]); the book's back-trace may leave it, and its taps outside read 0.
+#define TAPS_INSIDE (!BOOK_VARIANT)
+
+INLINE float2 bilinear_xy(const __global float4* prev, float2 b, int w, int h) {
+    const int x0 = (int)floor(b.x), y0 = (int)floor(b.y);
+    const float s1 = b.x - (float)x0, s0 = 1.0f - s1;
+    const float t1 = b.y - (float)y0, t0 = 1.0f - t1;
+    const bool in = TAPS_INSIDE;
+    return s0 * (t0 * ld4(prev, x0, y0, w, h, in).xy + t1 * ld4(prev, x0, y0 + 1, w, h, in).xy) +
+           s1 * (t0 * ld4(prev, x0 + 1, y0, w, h, in).xy + t1 * ld4(prev, x0 + 1, y0 + 1, w, h, in).xy);
+}
+
+INLINE float bilinear_z(const __global float4* prev, float2 b, int w, int h) {
+    const int x0 = (int)floor(b.x), y0 = (int)floor(b.y);
+    const float s1 = b.x - (float)x0, s0 = 1.0f - s1;
+    const float t1 = b.y - (float)y0, t0 = 1.0f - t1;
+    const bool in = TAPS_INSIDE;
+    return s0 * (t0 * ld4(prev, x0, y0, w, h, in).z + t1 * ld4(prev, x0, y0 + 1, w, h, in).z) +
+           s1 * (t0 * ld4(prev, x0 + 1, y0, w, h, in).z + t1 * ld4(prev, x0 + 1, y0 + 1, w, h, in).z);
 }
 
 // }}}
@@ -119,43 +225,109 @@ GRID_KERNEL void AddSourceVelocity(__global float2* velocity, __global float4* p
 }
 
 // 2. Viscosity, one Jacobi sweep of (1 + 4a) v = prev.xy + a * (sum of the 4 neighbours), a = dt*visc*w*h.
-GRID_KERNEL void DiffuseVelocity(const __global float2* velocity_in, __global float2* velocity_out,
-                                 const __global float4* prev, int w, int h, float a) {
-    CELL_OR_RETURN(w, h)
-    const float2 sum = ld2(velocity_in, x - 1, y, w, h) + ld2(velocity_in, x + 1, y, w, h) +
-                       ld2(velocity_in, x, y - 1, w, h) + ld2(velocity_in, x, y + 1, w, h);
-    velocity_out[i] = (prev[i].xy + a * sum) / (1.0f + 4.0f * a);
+INLINE float2 diffuse_velocity_at(const __global float2* velocity_in, const __global float4* prev, int x, int y, int w,
+                                  int h, float a, bool inside) {
+    const float2 sum = ld2(velocity_in, x - 1, y, w, h, inside) + ld2(velocity_in, x + 1, y, w, h, inside) +
+                       ld2(velocity_in, x, y - 1, w, h, inside) + ld2(velocity_in, x, y + 1, w, h, inside);
+    return (prev[y * w + x].xy + a * sum) / (1.0f + 4.0f * a);
 }
 
-// 3. Projection step 1: the divergence of the velocity into prev.y, p = prev.x starts at 0, prev.z kept.
-GRID_KERNEL void ProjectStep1(const __global float2* velocity, __global float4* prev, int w, int h) {
-    CELL_OR_RETURN(w, h)
-    const float du = ld2(velocity, x + 1, y, w, h).x - ld2(velocity, x - 1, y, w, h).x;
-    const float dv = ld2(velocity, x, y + 1, w, h).y - ld2(velocity, x, y - 1, w, h).y;
+GRID_KERNEL void DiffuseVelocity(const __global float2* velocity_in, __global float2* velocity_out,
+                                 const __global float4* prev, int w, int h, float a) {
+    int x = get_global_id(0), y = get_global_id(1);
+    if (is_wall_group(h)) {  // SetBoundaryVelocity from this sweep's values of the cells the rule reads
+        if (!wall_item(w, h, &x, &y)) return;
+        const int2 in = inner_cell(x, y, w, h);
+        const bool corner = is_corner(x, y, in);
+        velocity_out[y * w + x] =
+            wall_velocity(x, y, in, diffuse_velocity_at(velocity_in, prev, x, y, w, h, a, false),
+                          diffuse_velocity_at(velocity_in, prev, in.x, in.y, w, h, a, true),
+                          corner ? diffuse_velocity_at(velocity_in, prev, in.x, y, w, h, a, false).x : 0.0f,
+                          corner ? diffuse_velocity_at(velocity_in, prev, x, in.y, w, h, a, false).y : 0.0f);
+        return;
+    }
+    if (!is_interior(x, y, w, h)) return;  // padding, or a wall cell (a wall item sets it)
+    velocity_out[y * w + x] = diffuse_velocity_at(velocity_in, prev, x, y, w, h, a, true);
+}
+
+// 3. Projection step 1: the divergence of the velocity into prev.y (walls: the inner cell's, SetBoundaryDivergence),
+// p = prev.x starts at 0 (everywhere, so SetBoundaryDivPositive has nothing to change), prev.z kept.
+INLINE float divergence_at(const __global float2* velocity, int x, int y, int w, int h) {
+    const float du = velocity[y * w + x + 1].x - velocity[y * w + x - 1].x;  // (x, y) is interior: all 4 exist
+    const float dv = velocity[(y + 1) * w + x].y - velocity[(y - 1) * w + x].y;
 #if BOOK_VARIANT
-    const float div = -0.5f * (du / (float)w) + (dv / (float)h);  // the original's precedence: -0.5 on x only
+    return -0.5f * (du / (float)w) + (dv / (float)h);  // the original's precedence: -0.5 on x only
 #else
-    const float div = -0.5f * (du / (float)w + dv / (float)h);  // Stam: -0.5*h*(du + dv) with h = 1/n per axis
+    return -0.5f * (du / (float)w + dv / (float)h);  // Stam: -0.5*h*(du + dv) with h = 1/n per axis
 #endif
+}
+
+GRID_KERNEL void ProjectStep1(const __global float2* velocity, __global float4* prev, int w, int h) {
+    int x = get_global_id(0), y = get_global_id(1);
+    float div;
+    if (is_wall_group(h)) {  // SetBoundaryDivergence: the divergence of the inner cell
+        if (!wall_item(w, h, &x, &y)) return;
+        const int2 in = inner_cell(x, y, w, h);
+        div = wall_copy(x, y, in, divergence_at(velocity, in.x, in.y, w, h));
+    } else {
+        if (!is_interior(x, y, w, h)) return;  // padding, or a wall cell (a wall item sets it)
+        div = divergence_at(velocity, x, y, w, h);
+    }
+    const int i = y * w + x;
     prev[i] = (float4)(0.0f, div, prev[i].z, 0.0f);
 }
 
-// 4. Projection step 2, one Jacobi sweep of the Poisson equation 4p - (sum of the 4 neighbours' p) = div.
+// 4. Projection step 2, one Jacobi sweep of the Poisson equation 4p - (sum of the 4 neighbours' p) = div; walls
+// copy the inner cell's new p (SetBoundaryDivPositive).
+INLINE float pressure_at(const __global float4* prev_in, int x, int y, int w) {
+    const int i = y * w + x;  // an interior cell: all 4 neighbours exist
+    const float sum = prev_in[i - 1].x + prev_in[i + 1].x + prev_in[i - w].x + prev_in[i + w].x;
+    return (prev_in[i].y + sum) / 4.0f;
+}
+
 GRID_KERNEL void ProjectStep2(const __global float4* prev_in, __global float4* prev_out, int w, int h) {
-    CELL_OR_RETURN(w, h)
-    const float4 own = prev_in[i];
-    const float sum = ld4(prev_in, x - 1, y, w, h).x + ld4(prev_in, x + 1, y, w, h).x + ld4(prev_in, x, y - 1, w, h).x +
-                      ld4(prev_in, x, y + 1, w, h).x;
-    prev_out[i] = (float4)((own.y + sum) / 4.0f, own.yzw);
+    int x = get_global_id(0), y = get_global_id(1);
+    float p;
+    if (is_wall_group(h)) {  // SetBoundaryDivPositive: this sweep's p of the inner cell
+        if (!wall_item(w, h, &x, &y)) return;
+        const int2 in = inner_cell(x, y, w, h);
+        p = wall_copy(x, y, in, pressure_at(prev_in, in.x, in.y, w));
+    } else {
+        if (!is_interior(x, y, w, h)) return;  // padding, or a wall cell (a wall item sets it)
+        p = pressure_at(prev_in, x, y, w);
+    }
+    const int i = y * w + x;
+    prev_out[i] = (float4)(p, prev_in[i].yzw);
 }
 
 // 5. Projection step 3: subtract the gradient of p (central differences, in cells scaled by the grid size).
 GRID_KERNEL void ProjectStep3(__global float2* velocity, const __global float4* prev, int w, int h) {
     CELL_OR_RETURN(w, h)
     float2 v = velocity[i];
-    v.x -= 0.5f * (ld4(prev, x + 1, y, w, h).x - ld4(prev, x - 1, y, w, h).x) * (float)w;
-    v.y -= 0.5f * (ld4(prev, x, y + 1, w, h).x - ld4(prev, x, y - 1, w, h).x) * (float)h;
+    v.x -= 0.5f * (ld4(prev, x + 1, y, w, h, false).x - ld4(prev, x - 1, y, w, h, false).x) * (float)w;
+    v.y -= 0.5f * (ld4(prev, x, y + 1, w, h, false).x - ld4(prev, x, y - 1, w, h, false).x) * (float)h;
     velocity[i] = v;
+}
+
+// Walls: the normal component is the negated inner one (no flow through the wall), the tangential one is kept
+// (not Stam's copy of the inner tangential component: the book keeps the cell's own). Global >= 2(w-2) + 2(h-2) + 4.
+// An edge writes only its normal component and a corner reads only the edges' tangential ones (float pointers).
+__kernel void SetBoundaryVelocity(__global float2* velocity, int w, int h) {
+    int x, y;
+    if (!boundary_cell(get_global_id(0), w, h, &x, &y)) return;  // padding of the rounded-up global size
+    __global float* f = (__global float*)velocity;  // cell j: u at f[2j], v at f[2j + 1]
+    const int2 in = inner_cell(x, y, w, h);
+    const int j = y * w + x, inner = in.y * w + in.x;
+    if (y == in.y) {
+        f[2 * j] = -f[2 * inner];  // left or right wall
+    } else if (x == in.x) {
+        f[2 * j + 1] = -f[2 * inner + 1];  // bottom or top wall
+    } else {
+        const float2 v = wall_velocity(x, y, in, (float2)(0.0f), (float2)(f[2 * inner], f[2 * inner + 1]),
+                                       f[2 * (y * w + in.x)], f[2 * (in.y * w + x) + 1]);
+        f[2 * j] = v.x;
+        f[2 * j + 1] = v.y;
+    }
 }
 
 // 6. prev.xy = velocity: the field AdvectVelocity carries along (the book's "swap" is this copy).
@@ -165,14 +337,24 @@ GRID_KERNEL void SwapVelocity(const __global float2* velocity, __global float4* 
 }
 
 // 7. Advection term: back-trace by the cell's own (copied) velocity and interpolate prev.xy bilinearly.
+INLINE float2 advect_velocity_at(const __global float4* prev, int x, int y, int w, int h, float dfdt) {
+    return bilinear_xy(prev, back_trace(x, y, prev[y * w + x].xy, dfdt, w, h), w, h);
+}
+
 GRID_KERNEL void AdvectVelocity(const __global float4* prev, __global float2* velocity, int w, int h, float dfdt) {
-    CELL_OR_RETURN(w, h)
-    const float2 b = back_trace(x, y, prev[i].xy, dfdt, w, h);
-    const int x0 = (int)floor(b.x), y0 = (int)floor(b.y);
-    const float s1 = b.x - (float)x0, s0 = 1.0f - s1;
-    const float t1 = b.y - (float)y0, t0 = 1.0f - t1;
-    velocity[i] = s0 * (t0 * ld4(prev, x0, y0, w, h).xy + t1 * ld4(prev, x0, y0 + 1, w, h).xy) +
-                  s1 * (t0 * ld4(prev, x0 + 1, y0, w, h).xy + t1 * ld4(prev, x0 + 1, y0 + 1, w, h).xy);
+    int x = get_global_id(0), y = get_global_id(1);
+    if (is_wall_group(h)) {  // SetBoundaryVelocity from the advected values of the cells the rule reads
+        if (!wall_item(w, h, &x, &y)) return;
+        const int2 in = inner_cell(x, y, w, h);
+        const bool corner = is_corner(x, y, in);
+        velocity[y * w + x] = wall_velocity(x, y, in, advect_velocity_at(prev, x, y, w, h, dfdt),
+                                            advect_velocity_at(prev, in.x, in.y, w, h, dfdt),
+                                            corner ? advect_velocity_at(prev, in.x, y, w, h, dfdt).x : 0.0f,
+                                            corner ? advect_velocity_at(prev, x, in.y, w, h, dfdt).y : 0.0f);
+        return;
+    }
+    if (!is_interior(x, y, w, h)) return;  // padding, or a wall cell (a wall item sets it)
+    velocity[y * w + x] = advect_velocity_at(prev, x, y, w, h, dfdt);
 }
 
 // }}}
@@ -188,13 +370,28 @@ GRID_KERNEL void AddSourceDensity(__global float* density, __global float4* prev
     prev[i].z = s;
 }
 
-// 9. Diffusion, one Jacobi sweep of (1 + 4a) d = prev.z + a * (sum of the 4 neighbours), a = dt*diff*w*h.
+// 9. Diffusion, one Jacobi sweep of (1 + 4a) d = prev.z + a * (sum of the 4 neighbours), a = dt*diff*w*h; walls copy
+// the inner cell's new value (SetBoundaryDensity).
+INLINE float diffuse_density_at(const __global float* density_in, const __global float4* prev, int x, int y, int w,
+                                float a) {
+    const int i = y * w + x;  // an interior cell: all 4 neighbours exist
+    const float sum = density_in[i - 1] + density_in[i + 1] + density_in[i - w] + density_in[i + w];
+    return (prev[i].z + a * sum) / (1.0f + 4.0f * a);
+}
+
 GRID_KERNEL void DiffuseDensity(const __global float* density_in, __global float* density_out,
                                 const __global float4* prev, int w, int h, float a) {
-    CELL_OR_RETURN(w, h)
-    const float sum = ld1(density_in, x - 1, y, w, h) + ld1(density_in, x + 1, y, w, h) +
-                      ld1(density_in, x, y - 1, w, h) + ld1(density_in, x, y + 1, w, h);
-    density_out[i] = (prev[i].z + a * sum) / (1.0f + 4.0f * a);
+    int x = get_global_id(0), y = get_global_id(1);
+    float d;
+    if (is_wall_group(h)) {  // SetBoundaryDensity: this sweep's value of the inner cell
+        if (!wall_item(w, h, &x, &y)) return;
+        const int2 in = inner_cell(x, y, w, h);
+        d = wall_copy(x, y, in, diffuse_density_at(density_in, prev, in.x, in.y, w, a));
+    } else {
+        if (!is_interior(x, y, w, h)) return;  // padding, or a wall cell (a wall item sets it)
+        d = diffuse_density_at(density_in, prev, x, y, w, a);
+    }
+    density_out[y * w + x] = d;
 }
 
 // 10. prev.z = density: the field AdvectDensity carries along.
@@ -203,26 +400,32 @@ GRID_KERNEL void SwapDensity(const __global float* density, __global float4* pre
     prev[i].z = density[i];
 }
 
-inline float bilinear_z(const __global float4* prev, float2 b, int w, int h) {
-    const int x0 = (int)floor(b.x), y0 = (int)floor(b.y);
-    const float s1 = b.x - (float)x0, s0 = 1.0f - s1;
-    const float t1 = b.y - (float)y0, t0 = 1.0f - t1;
-    return s0 * (t0 * ld4(prev, x0, y0, w, h).z + t1 * ld4(prev, x0, y0 + 1, w, h).z) +
-           s1 * (t0 * ld4(prev, x0 + 1, y0, w, h).z + t1 * ld4(prev, x0 + 1, y0 + 1, w, h).z);
+// 11. Advection of the density by `carrier` (AdvectDensity: the current, projected velocity; AdvectDensityFromExt:
+// the brush's source.xy, read as the first float2 of each float4: stride 2), prev.z sampled bilinearly; walls copy
+// the inner cell's value (SetBoundaryDensity).
+INLINE void advect_density(const __global float2* carrier, int stride, const __global float4* prev,
+                           __global float* density, int w, int h, float dfdt) {
+    int x = get_global_id(0), y = get_global_id(1);
+    if (is_wall_group(h)) {
+        if (!wall_item(w, h, &x, &y)) return;
+        const int2 in = inner_cell(x, y, w, h);
+        const float2 b = back_trace(in.x, in.y, carrier[(in.y * w + in.x) * stride], dfdt, w, h);
+        density[y * w + x] = wall_copy(x, y, in, bilinear_z(prev, b, w, h));
+        return;
+    }
+    if (!is_interior(x, y, w, h)) return;  // padding, or a wall cell (a wall item sets it)
+    density[y * w + x] = bilinear_z(prev, back_trace(x, y, carrier[(y * w + x) * stride], dfdt, w, h), w, h);
 }
 
-// 11. Advection of the density by the current (projected) velocity.
 GRID_KERNEL void AdvectDensity(const __global float2* velocity, const __global float4* prev, __global float* density,
                                int w, int h, float dfdt) {
-    CELL_OR_RETURN(w, h)
-    density[i] = bilinear_z(prev, back_trace(x, y, velocity[i], dfdt, w, h), w, h);
+    advect_density(velocity, 1, prev, density, w, h, dfdt);
 }
 
 // 11'. density_only (book: isDensityOnly): advect by the brush's velocity instead of a simulated one.
 GRID_KERNEL void AdvectDensityFromExt(const __global float4* source, const __global float4* prev,
                                       __global float* density, int w, int h, float dfdt) {
-    CELL_OR_RETURN(w, h)
-    density[i] = bilinear_z(prev, back_trace(x, y, source[i].xy, dfdt, w, h), w, h);
+    advect_density((const __global float2*)source, 2, prev, density, w, h, dfdt);
 }
 
 // }}}
@@ -234,101 +437,19 @@ GRID_KERNEL void Draw(const __global float2* velocity, const __global float* den
     solver[i] = (float4)(velocity[i], density[i], 1.0f);
 }
 
-// {{{ boundaries (the book's SetBound* helpers, as separate launches)
+// {{{ the other boundary rules on their own (Simulation.set_boundary_*; the kernels above apply them in step())
 
-// Edge item k -> the edge cell (x, y) and its inner neighbour (ix, iy); `normal_axis` 0 for the x walls, 1 for y.
-// Order: left column, right column, bottom row, top row, corners excluded. Returns 0 for padding items.
-inline int edge_cell(int k, int w, int h, int* x, int* y, int* ix, int* iy, int* normal_axis) {
-    const int rows = h - 2, cols = w - 2;
-    if (k < rows) { *x = 0; *y = k + 1; *ix = 1; *iy = *y; *normal_axis = 0; return 1; }
-    k -= rows;
-    if (k < rows) { *x = w - 1; *y = k + 1; *ix = w - 2; *iy = *y; *normal_axis = 0; return 1; }
-    k -= rows;
-    if (k < cols) { *x = k + 1; *y = 0; *ix = *x; *iy = 1; *normal_axis = 1; return 1; }
-    k -= cols;
-    if (k < cols) { *x = k + 1; *y = h - 1; *ix = *x; *iy = h - 2; *normal_axis = 1; return 1; }
-    return 0;
-}
-
-// Corner item c (0: (0,0), 1: (0,h-1), 2: (w-1,0), 3: (w-1,h-1)) and its two edge neighbours a (along x), b (along y).
-inline void corner_cell(int c, int w, int h, int* x, int* y, int* ax, int* ay, int* bx, int* by) {
-    *x = (c < 2) ? 0 : w - 1;
-    *y = (c % 2 == 0) ? 0 : h - 1;
-    *ax = (c < 2) ? 1 : w - 2;
-    *ay = *y;
-    *bx = *x;
-    *by = (c % 2 == 0) ? 1 : h - 2;
-}
-
-// part BOUNDARY_EDGES: global >= 2(w-2) + 2(h-2); part BOUNDARY_CORNERS: global >= 4.
-__kernel void SetBoundaryDensity(__global float* density, int w, int h, int part) {
-    const int k = get_global_id(0);
-    int x, y, ix, iy, axis;
-    if (part == BOUNDARY_EDGES) {
-        if (!edge_cell(k, w, h, &x, &y, &ix, &iy, &axis)) return;
-        density[y * w + x] = density[iy * w + ix];
-    } else {
-        if (k >= 4) return;
-        int ax, ay, bx, by;
-        corner_cell(k, w, h, &x, &y, &ax, &ay, &bx, &by);
-        density[y * w + x] = 0.5f * (density[ay * w + ax] + density[by * w + bx]);
-    }
-}
-
-// Walls: the normal component is the negated inner one (no flow through the wall), the tangential one is kept
-// (not Stam's copy of the inner tangential component: the book keeps the cell's own).
-__kernel void SetBoundaryVelocity(__global float2* velocity, int w, int h, int part) {
-    const int k = get_global_id(0);
-    int x, y, ix, iy, axis;
-    if (part == BOUNDARY_EDGES) {
-        if (!edge_cell(k, w, h, &x, &y, &ix, &iy, &axis)) return;
-        const float2 inner = velocity[iy * w + ix];
-        float2 own = velocity[y * w + x];
-        if (axis == 0) own.x = -inner.x;
-        else own.y = -inner.y;
-        velocity[y * w + x] = own;
-    } else {
-        if (k >= 4) return;
-        int ax, ay, bx, by;
-        corner_cell(k, w, h, &x, &y, &ax, &ay, &bx, &by);
-        velocity[y * w + x] = 0.5f * (velocity[ay * w + ax] + velocity[by * w + bx]);
-    }
-}
+// Global >= 2(w-2) + 2(h-2) + 4 for each.
+__kernel void SetBoundaryDensity(__global float* density, int w, int h) { set_boundary_copy(density, 1, 0, w, h); }
 
 // prev.y (the divergence): copy the inner value; corners average.
-__kernel void SetBoundaryDivergence(__global float4* prev, int w, int h, int part) {
-    const int k = get_global_id(0);
-    int x, y, ix, iy, axis;
-    if (part == BOUNDARY_EDGES) {
-        if (!edge_cell(k, w, h, &x, &y, &ix, &iy, &axis)) return;
-        prev[y * w + x].y = prev[iy * w + ix].y;
-    } else {
-        if (k >= 4) return;
-        int ax, ay, bx, by;
-        corner_cell(k, w, h, &x, &y, &ax, &ay, &bx, &by);
-#if BOOK_VARIANT
-        // The original's typo: corner (0, h-1) reads (1, h-2) instead of (1, h-1). After the edges launch (1, h-1)
-        // holds a copy of (1, h-2), so with this launch order the typo changes no value (in the original's racy
-        // in-place version it could).
-        if (k == 1) ay = h - 2;
-#endif
-        prev[y * w + x].y = 0.5f * (prev[ay * w + ax].y + prev[by * w + bx].y);
-    }
+__kernel void SetBoundaryDivergence(__global float4* prev, int w, int h) {
+    set_boundary_copy((__global float*)prev, 4, 1, w, h);
 }
 
 // prev.x (p): copy the inner value (zero normal derivative at the walls); corners average.
-__kernel void SetBoundaryDivPositive(__global float4* prev, int w, int h, int part) {
-    const int k = get_global_id(0);
-    int x, y, ix, iy, axis;
-    if (part == BOUNDARY_EDGES) {
-        if (!edge_cell(k, w, h, &x, &y, &ix, &iy, &axis)) return;
-        prev[y * w + x].x = prev[iy * w + ix].x;
-    } else {
-        if (k >= 4) return;
-        int ax, ay, bx, by;
-        corner_cell(k, w, h, &x, &y, &ax, &ay, &bx, &by);
-        prev[y * w + x].x = 0.5f * (prev[ay * w + ax].x + prev[by * w + bx].x);
-    }
+__kernel void SetBoundaryDivPositive(__global float4* prev, int w, int h) {
+    set_boundary_copy((__global float*)prev, 4, 0, w, h);
 }
 
 // }}}

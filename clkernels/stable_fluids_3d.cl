@@ -1,45 +1,58 @@
 // stable_fluids_3d.cl: Unity Graphics Programming vol.1 ch.4, "Fluid simulation by lattice method": the 3D solver
-// the original ships as Solver3D.compute but never runs (spec 04, sections 4 and 10).
+// the original ships as Solver3D.compute but never runs (docs/chapters/04-stable-fluids-3d.md).
 // Jos Stam, "Stable Fluids", SIGGRAPH 1999: implicit diffusion, projection, semi-Lagrangian advection on a grid.
 //
 // Fields: row-major w x h x d grids, cell (x, y, z) at index (z*h + y)*w + x, y = 0 at the bottom. float4 fields:
 //   velocity (u, v, w, 0); source (velocity source xyz, density source w); solver (u, v, w, density);
 //   prev, multiplexed as the book does: xyz = velocity source or copy of velocity, w = density source or copy of
 //   density; during the projection x = p and y = div (z, w kept: later kernels read the leftovers).
-// Kernels, in host call order per step (B(f) = SetBoundary<f> launched three times: faces, edges, corners):
+// Boundary rules (the book's SetBoundary* helpers): a face cell copies its inner neighbour (the velocity's negates
+//   the inner cell's normal component and keeps its own tangential ones), an edge cell is the mean of the 2 face
+//   cells beside it, a corner the mean of the 3 edge cells beside it. Every wall cell's value therefore follows from
+//   interior cells and face cells' tangential velocity: the cell one step inwards on each wall axis (clamp(c, 1,
+//   n-2)) and, for the velocity, the face cells that share all but one of its coordinates with it. "+B(f)" below:
+//   the kernel applies f's rule itself, as the book calls SetBoundary* at the end of each kernel, but without
+//   reading cells other work-items write: extra work-groups past the grid's layers take one wall cell per work-item
+//   and compute the kernel's value at those cells from its inputs; the grid's groups compute the interior (see
+//   wall_item). Every value is the one a sweep followed by separate face, edge and corner launches gives, bit for bit.
+// Kernels, in host call order per step, and in this file's order:
 //   AddSourceBrush3D     -> source: spherical emitter f = clamp(1 - |(uvw - c)/r|^2, 0, 1), source = (dir*f, f)
 //   velocity step (skipped when density_only):
 //   AddSourceVelocity    velocity += s.xyz*velocityCoef*dt, prev.xyz = s.xyz*velocityCoef*dt   (own cell, in place)
-//   DiffuseVelocity      velocity_in, prev.xyz -> velocity_out: one Jacobi sweep (host: gs_iterations times), B(Velocity)
-//   ProjectStep1         velocity -> prev = (0, div, prev.z, prev.w) (own cell, in place); B(Div), B(P)
-//   ProjectStep2         prev_in -> prev_out: one Jacobi sweep of the Poisson equation for p (gs_iterations), B(P)
-//   ProjectStep3         velocity -= 0.5*(p(+1) - p(-1))*(w | h | d) per axis (own cell, in place); B(Velocity)
+//   DiffuseVelocity      velocity_in, prev.xyz -> velocity_out: one Jacobi sweep (host: gs_iterations times)
+//                        +B(Velocity)
+//   ProjectStep1         velocity -> prev = (0, div, prev.z, prev.w) (own cell, in place) +B(Div); p = 0 everywhere,
+//                        so B(P) would change nothing
+//   ProjectStep2         prev_in -> prev_out: one Jacobi sweep of the Poisson equation for p (gs_iterations) +B(P)
+//   ProjectStep3         velocity -= 0.5*(p(+1) - p(-1))*(w | h | d) per axis (own cell, in place)
+//   SetBoundaryVelocity  after ProjectStep3 (in place: its walls would read cells other work-items write)
 //   SwapVelocity         prev.xyz = velocity (a one-way copy despite the name, as the book)
-//   AdvectVelocity       prev.xyz -> velocity: back-trace by the cell's own prev.xyz, trilinear; B(Velocity)
-//   ProjectStep1..3      again
+//   AdvectVelocity       prev.xyz -> velocity: back-trace by the cell's own prev.xyz, trilinear +B(Velocity)
+//   ProjectStep1..3, SetBoundaryVelocity again
 //   density step:
 //   AddSourceDensity     density += s.w*densityCoef*dt, prev.w = s.w*densityCoef*dt   (own cell, in place)
-//   DiffuseDensity       density_in, prev.w -> density_out: one Jacobi sweep (gs_iterations times), B(Density)
+//   DiffuseDensity       density_in, prev.w -> density_out: one Jacobi sweep (gs_iterations times) +B(Density)
 //   SwapDensity          prev.w = density
-//   AdvectDensity        velocity, prev.w -> density: back-trace by the current velocity; B(Density)
-//   AdvectDensityFromExt source.xyz, prev.w -> density: back-trace by the source (density_only); B(Density)
+//   AdvectDensity        velocity, prev.w -> density: back-trace by the current velocity +B(Density)
+//   AdvectDensityFromExt source.xyz, prev.w -> density: back-trace by the source (density_only) +B(Density)
 //   Draw                 velocity, density -> solver = (u, v, w, density)
-//   SetBoundaryDensity / SetBoundaryVelocity / SetBoundaryDiv (prev.y) / SetBoundaryP (prev.x), argument `part`:
-//     BOUNDARY_FACES   global (max(w,h), max(h,d), 6): a face cell copies its inner neighbour (velocity: negates
-//                      the normal component of the inner cell, keeps its own tangential components)
-//     BOUNDARY_EDGES   global (max(w,h,d), 12): an edge cell = mean of its 2 neighbouring face cells
-//     BOUNDARY_CORNERS global 8: a corner = mean of its 3 neighbouring edge cells
-//   Each launch reads only cells the launch before wrote, so no cell is read while it is written (the book
-//   applies these rules in place inside every kernel, racing with its neighbours).
+//   SetBoundaryDensity, SetBoundaryDiv (prev.y), SetBoundaryP (prev.x): the rules on their own
+//                        (Simulation.set_boundary_*; step() applies them inside the kernels above)
+//   The SetBoundary* kernels are one launch of one work-item per wall cell (see boundary_cell): every cell reads
+//   interior cells, and SetBoundaryVelocity's face cells write only their normal component while its edges and
+//   corners read only the face cells' other components (float pointers, so no byte is read while another work-item
+//   writes it).
 // Build defines: THREAD_X, THREAD_Y, THREAD_Z = work-group shape of the grid kernels (book: numthreads 8, 8, 4);
 //   BOOK_VARIANT = 1: the original's divergence -0.5*du/w + dv/h + dw/d (operator precedence) and a back-trace that
 //   is never clamped (its clamp() discards the result); 0: Stam's -0.5*(du/w + dv/h + dw/d), back-trace clamped
-//   to [0.5, n - 1.5]. Bugs of Solver3D.compute fixed in both (spec 04 section 10): `id.x < d` guards, AdvectDensity
-//   sampling prev.z, a velocity volume without z (RGHalf), integer-division uvw, the last corner rule without
-//   z == d-1, a_v without d.
+//   to [0.5, n - 1.5]. Bugs of Solver3D.compute fixed in both (docs/chapters/04-stable-fluids-3d.md): `id.x < d`
+//   guards, AdvectDensity sampling prev.z, a velocity volume without z (RGHalf), integer-division uvw, the last
+//   corner rule without z == d-1, a_v without d.
 // Differences from the book: one Jacobi sweep per launch from a read buffer into a write buffer (the book's in-place
-// Gauss-Seidel races), guarded global sizes rounded up to the work-group shape (the book drops partial groups),
-// every neighbour read through ld() (zero outside the grid, as D3D's out-of-range texture reads), float32 fields.
+// Gauss-Seidel races), boundary values computed from the kernel's inputs (the book's in-kernel SetBoundary* calls
+// read neighbours other work-items are writing), guarded global sizes rounded up to the work-group shape (the book
+// drops partial groups), every read that may fall outside the grid through ld() (zero there, as D3D's out-of-range
+// texture reads), float32 fields.
 
 #ifndef THREAD_X
 #error "build with -D THREAD_X=<work-group x> -D THREAD_Y=<y> -D THREAD_Z=<z> (book: 8, 8, 4)"
@@ -51,41 +64,49 @@
 #error "build with -D BOOK_VARIANT=1 (the original's arithmetic) or 0 (Stam's equations)"
 #endif
 
-#define BOUNDARY_FACES 0
-#define BOUNDARY_EDGES 1
-#define BOUNDARY_CORNERS 2
 #define ONE_THIRD (1.0f / 3.0f)  // corner mean as a product (the book divides by 3): the same rounding as numpy's
 
+// Helpers are always inlined: PoCL keeps a large helper that is called more than once as a call per work-item.
+#define INLINE inline __attribute__((always_inline))
+
 #define GRID_KERNEL __kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+// One work-item per cell; padding items of the rounded-up global size leave at once (no kernel has a barrier).
+#define CELL_OR_RETURN(w, h, d)                                                                    \
+    const int x = get_global_id(0), y = get_global_id(1), z = get_global_id(2);                    \
+    if (x >= (w) || y >= (h) || z >= (d)) return;                                                  \
+    const int4 n = (int4)((w), (h), (d), 0);                                                       \
+    const int id = cell(x, y, z, n);
 
 // {{{ helpers
 
-inline int cell(int x, int y, int z, int4 n) { return (z * n.y + y) * n.x + x; }
+INLINE int cell(int x, int y, int z, int4 n) { return (z * n.y + y) * n.x + x; }
 
-inline bool inside(int x, int y, int z, int4 n) { return x >= 0 && y >= 0 && z >= 0 && x < n.x && y < n.y && z < n.z; }
+INLINE bool in_grid(int x, int y, int z, int4 n) { return x >= 0 && y >= 0 && z >= 0 && x < n.x && y < n.y && z < n.z; }
 
 // The book reads neighbours with texture[] and relies on D3D returning 0 outside the texture; here explicitly.
-inline float ld(const __global float* f, int x, int y, int z, int4 n) {
-    return inside(x, y, z, n) ? f[cell(x, y, z, n)] : 0.0f;
+// `inside` (a literal at every call) says that (x, y, z) is known to lie in the grid (a neighbour of an interior
+// cell): then the test is folded away and the read is a plain load.
+INLINE float ld(const __global float* f, int x, int y, int z, int4 n, bool inside) {
+    return (inside || in_grid(x, y, z, n)) ? f[cell(x, y, z, n)] : 0.0f;
 }
 
-inline float4 ld4(const __global float4* f, int x, int y, int z, int4 n) {
-    return inside(x, y, z, n) ? f[cell(x, y, z, n)] : (float4)(0.0f);
+INLINE float4 ld4(const __global float4* f, int x, int y, int z, int4 n, bool inside) {
+    return (inside || in_grid(x, y, z, n)) ? f[cell(x, y, z, n)] : (float4)(0.0f);
 }
 
 // Sum of the 6 face neighbours (the 3D Laplacian stencil without its centre).
-inline float4 neighbours4(const __global float4* f, int x, int y, int z, int4 n) {
-    return ld4(f, x - 1, y, z, n) + ld4(f, x + 1, y, z, n) + ld4(f, x, y - 1, z, n) + ld4(f, x, y + 1, z, n) +
-           ld4(f, x, y, z - 1, n) + ld4(f, x, y, z + 1, n);
+INLINE float4 neighbours4(const __global float4* f, int x, int y, int z, int4 n, bool inside) {
+    return ld4(f, x - 1, y, z, n, inside) + ld4(f, x + 1, y, z, n, inside) + ld4(f, x, y - 1, z, n, inside) +
+           ld4(f, x, y + 1, z, n, inside) + ld4(f, x, y, z - 1, n, inside) + ld4(f, x, y, z + 1, n, inside);
 }
 
-inline float neighbours(const __global float* f, int x, int y, int z, int4 n) {
-    return ld(f, x - 1, y, z, n) + ld(f, x + 1, y, z, n) + ld(f, x, y - 1, z, n) + ld(f, x, y + 1, z, n) +
-           ld(f, x, y, z - 1, n) + ld(f, x, y, z + 1, n);
+INLINE float neighbours(const __global float* f, int x, int y, int z, int4 n, bool inside) {
+    return ld(f, x - 1, y, z, n, inside) + ld(f, x + 1, y, z, n, inside) + ld(f, x, y - 1, z, n, inside) +
+           ld(f, x, y + 1, z, n, inside) + ld(f, x, y, z - 1, n, inside) + ld(f, x, y, z + 1, n, inside);
 }
 
 // Where a back-traced point may lie (book: clamp(x, 0.5, w - 1.5) with its result dropped).
-inline float3 clamp_back_trace(float3 b, int4 n) {
+INLINE float3 clamp_back_trace(float3 b, int4 n) {
 #if BOOK_VARIANT
     // No clamp, as the book: taps outside read 0. Any coordinate below -1 or at/above n reads only zeros, so pinning
     // b to [-2, n + 1] changes no value; it only keeps the float -> int conversion below defined.
@@ -95,173 +116,160 @@ inline float3 clamp_back_trace(float3 b, int4 n) {
 #endif
 }
 
+// Stam's clamp keeps the 8 taps of a back-traced point in the grid (floor(b) in [0, n-2]); the book's may leave it,
+// and its taps outside read 0.
+#define TAPS_INSIDE (!BOOK_VARIANT)
+
 // Trilinear interpolation of f at the grid point b (book: s0/s1, t0/t1, u0/u1 weights of the 8 cells around b).
-inline float4 trilinear(const __global float4* f, float3 b, int4 n) {
+INLINE float4 trilinear(const __global float4* f, float3 b, int4 n) {
     const float3 b0 = floor(b);
     const int x0 = (int)b0.x, y0 = (int)b0.y, z0 = (int)b0.z;
     const float s1 = b.x - b0.x, t1 = b.y - b0.y, u1 = b.z - b0.z;
     const float s0 = 1.0f - s1, t0 = 1.0f - t1, u0 = 1.0f - u1;
-    return s0 * u0 * (t0 * ld4(f, x0, y0, z0, n) + t1 * ld4(f, x0, y0 + 1, z0, n)) +
-           s1 * u0 * (t0 * ld4(f, x0 + 1, y0, z0, n) + t1 * ld4(f, x0 + 1, y0 + 1, z0, n)) +
-           s0 * u1 * (t0 * ld4(f, x0, y0, z0 + 1, n) + t1 * ld4(f, x0, y0 + 1, z0 + 1, n)) +
-           s1 * u1 * (t0 * ld4(f, x0 + 1, y0, z0 + 1, n) + t1 * ld4(f, x0 + 1, y0 + 1, z0 + 1, n));
+    const bool in = TAPS_INSIDE;
+    return s0 * u0 * (t0 * ld4(f, x0, y0, z0, n, in) + t1 * ld4(f, x0, y0 + 1, z0, n, in)) +
+           s1 * u0 * (t0 * ld4(f, x0 + 1, y0, z0, n, in) + t1 * ld4(f, x0 + 1, y0 + 1, z0, n, in)) +
+           s0 * u1 * (t0 * ld4(f, x0, y0, z0 + 1, n, in) + t1 * ld4(f, x0, y0 + 1, z0 + 1, n, in)) +
+           s1 * u1 * (t0 * ld4(f, x0 + 1, y0, z0 + 1, n, in) + t1 * ld4(f, x0 + 1, y0 + 1, z0 + 1, n, in));
 }
 
 // }}}
 
-// {{{ boundaries
+// {{{ the boundary rules (the book's SetBoundary* helpers), shared by the kernels that apply them
 
-// One boundary cell of a launch and the cells its value comes from.
-typedef struct {
-    int target;     // the boundary cell written
-    int count;      // 0: this work-item has no cell; 1: a face cell; 2: an edge cell; 3: a corner
-    int source[3];  // face: the inner neighbour; edge: the 2 face cells next to it; corner: the 3 edge cells
-    int axis;       // face only: the axis normal to the face (0 x, 1 y, 2 z)
-} BoundaryCell;
-
-inline int cell_of(const int c[3], int4 n) { return cell(c[0], c[1], c[2], n); }
-
-// Face f (0: x = 0, 1: x = w-1, 2: y = 0, 3: y = h-1, 4: z = 0, 5: z = d-1) = get_global_id(2); (i, j) = the two
-// tangential coordinates; only the face's inner part (edges and corners excluded) is written.
-inline BoundaryCell face_cell(int4 n) {
+// in = c moved one step inwards on each axis where c is on a wall (c itself inside); returns the number of wall axes:
+// 0 inside, 1 a face cell, 2 an edge cell, 3 a corner.
+INLINE int inner_cell(const int c[3], int4 n, int in[3]) {
     const int dims[3] = {n.x, n.y, n.z};
-    const int face = get_global_id(2), axis = face / 2, high = face % 2;
-    const int t1 = axis == 0 ? 1 : 0, t2 = axis == 2 ? 1 : 2;  // tangential axes: (y, z), (x, z) or (x, y)
-    const int i = get_global_id(0), j = get_global_id(1);
-    BoundaryCell b = {0, 0, {0, 0, 0}, axis};
-    if (i < 1 || i > dims[t1] - 2 || j < 1 || j > dims[t2] - 2) return b;
-    int c[3];
-    c[t1] = i;
-    c[t2] = j;
-    c[axis] = high ? dims[axis] - 1 : 0;
-    b.target = cell_of(c, n);
-    c[axis] = high ? dims[axis] - 2 : 1;
-    b.source[0] = cell_of(c, n);
-    b.count = 1;
-    return b;
-}
-
-// Edge e = get_global_id(1) runs along axis e / 4; bits 0 and 1 of e put it on the low or high side of the two
-// other axes; get_global_id(0) = the coordinate along the edge (its two corners excluded).
-inline BoundaryCell edge_cell(int4 n) {
-    const int dims[3] = {n.x, n.y, n.z};
-    const int edge = get_global_id(1), along = edge / 4, t = get_global_id(0);
-    const int o1 = (along + 1) % 3, o2 = (along + 2) % 3;
-    const int high1 = edge & 1, high2 = (edge >> 1) & 1;
-    BoundaryCell b = {0, 0, {0, 0, 0}, 0};
-    if (t < 1 || t > dims[along] - 2) return b;
-    int c[3];
-    c[along] = t;
-    c[o1] = high1 ? dims[o1] - 1 : 0;
-    c[o2] = high2 ? dims[o2] - 1 : 0;
-    b.target = cell_of(c, n);
-    const int edge1 = c[o1], edge2 = c[o2];
-    c[o1] = high1 ? dims[o1] - 2 : 1;  // one step inwards across axis o1: a face cell
-    b.source[0] = cell_of(c, n);
-    c[o1] = edge1;
-    c[o2] = high2 ? dims[o2] - 2 : 1;  // one step inwards across axis o2
-    b.source[1] = cell_of(c, n);
-    c[o2] = edge2;
-    b.count = 2;
-    return b;
-}
-
-// Corner k = get_global_id(0) in 0..7: bit a puts it on the high side of axis a; its 3 sources step inwards along x,
-// y and z (each an edge cell).
-inline BoundaryCell corner_cell(int4 n) {
-    const int dims[3] = {n.x, n.y, n.z};
-    const int k = get_global_id(0);
-    BoundaryCell b = {0, 0, {0, 0, 0}, 0};
-    if (k > 7) return b;
-    int c[3];
-    for (int a = 0; a < 3; a++) c[a] = (k >> a) & 1 ? dims[a] - 1 : 0;
-    b.target = cell_of(c, n);
+    int walls = 0;
     for (int a = 0; a < 3; a++) {
-        const int corner = c[a];
-        c[a] = (k >> a) & 1 ? dims[a] - 2 : 1;
-        b.source[a] = cell_of(c, n);
-        c[a] = corner;
+        in[a] = clamp(c[a], 1, dims[a] - 2);
+        walls += in[a] != c[a];
     }
-    b.count = 3;
-    return b;
+    return walls;
 }
 
-inline BoundaryCell boundary_cell(int part, int4 n) {
-    if (part == BOUNDARY_FACES) return face_cell(n);
-    if (part == BOUNDARY_EDGES) return edge_cell(n);
-    return corner_cell(n);
+INLINE int cell_of(const int c[3], int4 n) { return cell(c[0], c[1], c[2], n); }
+
+// 1 <= x <= w-2, 1 <= y <= h-2 and 1 <= z <= d-2 in three unsigned comparisons (padding work-items fail it too).
+INLINE bool is_interior(int x, int y, int z, int4 n) {
+    return (uint)(x - 1) < (uint)(n.x - 2) && (uint)(y - 1) < (uint)(n.y - 2) && (uint)(z - 1) < (uint)(n.z - 2);
 }
 
-// Copy (face) or mean (edge, corner) of one float per cell, read `stride` floats apart starting at `offset`.
-inline float boundary_value(const __global float* f, int stride, int offset, const BoundaryCell* b) {
-    const float a = f[b->source[0] * stride + offset];
-    if (b->count == 1) return a;
-    const float c = f[b->source[1] * stride + offset];
-    if (b->count == 2) return (a + c) * 0.5f;
-    return (a + c + f[b->source[2] * stride + offset]) * ONE_THIRD;
+// SetBoundaryDensity / Div / P at a cell with `walls` wall axes, `v` = the value of its inner cell: a face cell
+// copies v; an edge cell is the mean of its 2 face neighbours, both copies of v; a corner the mean of its 3 edge
+// neighbours, each such a mean (the sums and products in the book's order).
+INLINE float wall_copy(int walls, float v) {
+    if (walls <= 1) return v;
+    const float edge = (v + v) * 0.5f;
+    return walls == 2 ? edge : (edge + edge + edge) * ONE_THIRD;
 }
 
-__kernel void SetBoundaryDensity(__global float* density, int w, int h, int d, int part) {
-    const int4 n = (int4)(w, h, d, 0);
-    const BoundaryCell b = boundary_cell(part, n);
-    if (b.count == 0) return;
-    density[b.target] = boundary_value(density, 1, 0, &b);
+// The face rule of SetBoundaryVelocity for a face cell normal to `axis`: its own value `own` with the normal
+// component replaced by the inner cell's, negated (no flow through the wall).
+INLINE float4 face_velocity(int axis, float4 own, float4 inner) {
+    own.x = axis == 0 ? -inner.x : own.x;
+    own.y = axis == 1 ? -inner.y : own.y;
+    own.z = axis == 2 ? -inner.z : own.z;
+    return own;
 }
 
-__kernel void SetBoundaryVelocity(__global float4* velocity, int w, int h, int d, int part) {
-    const int4 n = (int4)(w, h, d, 0);
-    const BoundaryCell b = boundary_cell(part, n);
-    if (b.count == 0) return;
-    if (b.count == 1) {  // a wall: the normal component mirrors the inner cell's, the tangential ones stay
-        const float4 inner = velocity[b.source[0]];
-        float4 v = velocity[b.target];
-        v.x = b.axis == 0 ? -inner.x : v.x;
-        v.y = b.axis == 1 ? -inner.y : v.y;
-        v.z = b.axis == 2 ? -inner.z : v.z;
-        velocity[b.target] = v;
-    } else if (b.count == 2) {
-        velocity[b.target] = (velocity[b.source[0]] + velocity[b.source[1]]) * 0.5f;
-    } else {
-        velocity[b.target] = (velocity[b.source[0]] + velocity[b.source[1]] + velocity[b.source[2]]) * ONE_THIRD;
+// SetBoundaryVelocity at a wall cell c (inner cell `in`, `walls` wall axes) from face[a] = the face rule's value at
+// the face cell normal to a that shares c's coordinate a and in's others (c itself when walls == 1), for each wall
+// axis a. An edge along axis e is (face[e+2] + face[e+1]) * 0.5 (axes mod 3), a corner the mean of the 3 edges.
+INLINE float4 wall_velocity(const int c[3], const int in[3], int walls, const float4 face[3]) {
+    if (walls == 1) return face[c[0] != in[0] ? 0 : c[1] != in[1] ? 1 : 2];
+    if (walls == 2) {
+        const int along = c[0] == in[0] ? 0 : c[1] == in[1] ? 1 : 2;
+        return (face[(along + 2) % 3] + face[(along + 1) % 3]) * 0.5f;
     }
+    float4 edge[3];
+    for (int e = 0; e < 3; e++) edge[e] = (face[(e + 2) % 3] + face[(e + 1) % 3]) * 0.5f;
+    return (edge[0] + edge[1] + edge[2]) * ONE_THIRD;
 }
 
-__kernel void SetBoundaryDiv(__global float4* prev, int w, int h, int d, int part) {
-    const int4 n = (int4)(w, h, d, 0);
-    const BoundaryCell b = boundary_cell(part, n);
-    if (b.count == 0) return;
-    prev[b.target].y = boundary_value((const __global float*)prev, 4, 1, &b);  // prev.y = div
+// The face cell of wall axis a used by wall_velocity: in with coordinate a taken from c.
+INLINE void face_cell(const int c[3], const int in[3], int a, int f[3]) {
+    for (int b = 0; b < 3; b++) f[b] = b == a ? c[b] : in[b];
 }
 
-__kernel void SetBoundaryP(__global float4* prev, int w, int h, int d, int part) {
-    const int4 n = (int4)(w, h, d, 0);
-    const BoundaryCell b = boundary_cell(part, n);
-    if (b.count == 0) return;
-    prev[b.target].x = boundary_value((const __global float*)prev, 4, 0, &b);  // prev.x = p
+INLINE int wall_count(int4 n) { return n.x * n.y * n.z - (n.x - 2) * (n.y - 2) * (n.z - 2); }
+
+// Wall cell k -> c, each wall cell once: the faces x = 0 and x = w-1 whole (h*d cells each), the faces y = 0 and
+// y = h-1 without their x ends ((w-2)*d each), the faces z = 0 and z = d-1 without their x and y ends
+// ((w-2)*(h-2) each). 0 past the last.
+INLINE int boundary_cell(int k, int4 n, int c[3]) {
+    const int yz = n.y * n.z, xz = (n.x - 2) * n.z, xy = (n.x - 2) * (n.y - 2);
+    if (k < 2 * yz) {
+        c[0] = k < yz ? 0 : n.x - 1;
+        k %= yz;
+        c[1] = k % n.y;
+        c[2] = k / n.y;
+        return 1;
+    }
+    k -= 2 * yz;
+    if (k < 2 * xz) {
+        c[1] = k < xz ? 0 : n.y - 1;
+        k %= xz;
+        c[0] = 1 + k % (n.x - 2);
+        c[2] = k / (n.x - 2);
+        return 1;
+    }
+    k -= 2 * xz;
+    if (k < 2 * xy) {
+        c[2] = k < xy ? 0 : n.z - 1;
+        k %= xy;
+        c[0] = 1 + k % (n.x - 2);
+        c[1] = 1 + k / (n.x - 2);
+        return 1;
+    }
+    return 0;
+}
+
+// The kernels that set walls themselves (+B in the header) are launched with extra layers of work-groups past the
+// grid's along z (Simulation._reset: as many as the wall cells fill): the grid's groups compute the interior cells
+// and leave the walls alone; work-item k of the extra groups, counted group by group, sets wall cell k, and groups
+// past the last wall cell leave at once. A group thus runs one branch for all its work-items, and the interior's
+// neighbour reads need no bounds test.
+INLINE bool is_wall_group(int d) { return get_group_id(2) * get_local_size(2) >= d; }
+
+INLINE int wall_item(int4 n, int c[3]) {
+    const int size = get_local_size(0) * get_local_size(1) * get_local_size(2);
+    const int grid_layers = (n.z + get_local_size(2) - 1) / get_local_size(2);  // the grid's layers of groups
+    const int group =
+        ((get_group_id(2) - grid_layers) * get_num_groups(1) + get_group_id(1)) * get_num_groups(0) + get_group_id(0);
+    if (group * size >= wall_count(n)) return 0;  // a group past the last wall cell: all its work-items leave
+    const int item = (get_local_id(2) * get_local_size(1) + get_local_id(1)) * get_local_size(0) + get_local_id(0);
+    return boundary_cell(group * size + item, n, c);
+}
+
+// The copy rule on one float per cell, `stride` floats apart from `offset` (density: 1, 0; prev.x: 4, 0; prev.y: 4, 1),
+// one work-item per wall cell. Every work-item reads only an interior cell and writes only its own wall cell.
+INLINE void set_boundary_copy(__global float* f, int stride, int offset, int4 n) {
+    int c[3], in[3];
+    if (!boundary_cell(get_global_id(0), n, c)) return;  // padding of the rounded-up global size
+    const int walls = inner_cell(c, n, in);
+    f[cell_of(c, n) * stride + offset] = wall_copy(walls, f[cell_of(in, n) * stride + offset]);
 }
 
 // }}}
 
 // {{{ external force (source) terms
 
-// Proposal of spec 04 (the original's 3D source texture has no producer): a spherical emitter at c (uvw units) of
-// radius r blowing along dir.
+// The original's 3D source texture has no producer (docs/chapters/04-stable-fluids-3d.md): a spherical emitter at c
+// (uvw units) of radius r blowing along dir.
 GRID_KERNEL void AddSourceBrush3D(__global float4* source, int w, int h, int d, float4 center, float4 direction,
                                   float radius) {
-    const int x = get_global_id(0), y = get_global_id(1), z = get_global_id(2);
-    if (x >= w || y >= h || z >= d) return;
-    const int4 n = (int4)(w, h, d, 0);
+    CELL_OR_RETURN(w, h, d)
     const float3 uvw = ((float3)(x, y, z) + 0.5f) / convert_float3(n.xyz);
     const float3 q = (uvw - center.xyz) / radius;
     const float f = clamp(1.0f - dot(q, q), 0.0f, 1.0f);
-    source[cell(x, y, z, n)] = (float4)(direction.xyz * f, f);
+    source[id] = (float4)(direction.xyz * f, f);
 }
 
 GRID_KERNEL void AddSourceVelocity(__global float4* velocity, __global float4* prev, const __global float4* source,
                                    int w, int h, int d, float velocity_coef, float dt) {
-    const int x = get_global_id(0), y = get_global_id(1), z = get_global_id(2);
-    if (x >= w || y >= h || z >= d) return;
-    const int id = cell(x, y, z, (int4)(w, h, d, 0));
+    CELL_OR_RETURN(w, h, d)
     const float3 s = source[id].xyz * velocity_coef * dt;
     velocity[id] = (float4)(velocity[id].xyz + s, 0.0f);
     prev[id] = (float4)(s, prev[id].w);
@@ -273,71 +281,165 @@ GRID_KERNEL void AddSourceVelocity(__global float4* velocity, __global float4* p
 
 // Implicit viscosity: (1 + 6a) v - a * sum6(v) = prev.xyz, one Jacobi sweep. Note that the book feeds prev (the
 // source, or leftovers of the last projection) where Stam has the previous velocity; with the scene's a ~ 1e5 the
-// sweep is effectively "replace by the mean of the 6 neighbours" (spec 04 section 10: reproduced, not corrected).
-GRID_KERNEL void DiffuseVelocity(const __global float4* velocity_in, const __global float4* prev,
-                                 __global float4* velocity_out, int w, int h, int d, float dt, float visc) {
-    const int x = get_global_id(0), y = get_global_id(1), z = get_global_id(2);
-    if (x >= w || y >= h || z >= d) return;
-    const int4 n = (int4)(w, h, d, 0);
-    const float a = dt * visc * (float)w * (float)h * (float)d;  // Solver3D.compute omits d (spec 04 section 10)
-    const float3 v = (prev[cell(x, y, z, n)].xyz + a * neighbours4(velocity_in, x, y, z, n).xyz) / (1.0f + 6.0f * a);
-    velocity_out[cell(x, y, z, n)] = (float4)(v, 0.0f);
+// sweep is effectively "replace by the mean of the 6 neighbours" (reproduced, not corrected). Solver3D.compute
+// omits d from a (docs/chapters/04-stable-fluids-3d.md): a = dt*visc*w*h*d here.
+INLINE float4 diffuse_velocity_at(const __global float4* velocity_in, const __global float4* prev, int x, int y, int z,
+                                  int4 n, float a, bool inside) {
+    const float4 sum = neighbours4(velocity_in, x, y, z, n, inside);
+    return (float4)((prev[cell(x, y, z, n)].xyz + a * sum.xyz) / (1.0f + 6.0f * a), 0.0f);
 }
 
-// Divergence into prev.y, p = 0 into prev.x.
-GRID_KERNEL void ProjectStep1(const __global float4* velocity, __global float4* prev, int w, int h, int d) {
-    const int x = get_global_id(0), y = get_global_id(1), z = get_global_id(2);
-    if (x >= w || y >= h || z >= d) return;
+GRID_KERNEL void DiffuseVelocity(const __global float4* velocity_in, const __global float4* prev,
+                                 __global float4* velocity_out, int w, int h, int d, float dt, float visc) {
     const int4 n = (int4)(w, h, d, 0);
-    const float du = ld4(velocity, x + 1, y, z, n).x - ld4(velocity, x - 1, y, z, n).x;
-    const float dv = ld4(velocity, x, y + 1, z, n).y - ld4(velocity, x, y - 1, z, n).y;
-    const float dw = ld4(velocity, x, y, z + 1, n).z - ld4(velocity, x, y, z - 1, n).z;
+    const float a = dt * visc * (float)w * (float)h * (float)d;
+    int c[3] = {get_global_id(0), get_global_id(1), get_global_id(2)};
+    if (is_wall_group(d)) {  // SetBoundaryVelocity from this sweep's values of the cells the rule reads
+        if (!wall_item(n, c)) return;
+        int in[3], f[3];
+        const int walls = inner_cell(c, n, in);
+        const float4 inner = diffuse_velocity_at(velocity_in, prev, in[0], in[1], in[2], n, a, true);
+        float4 face[3] = {(float4)(0.0f), (float4)(0.0f), (float4)(0.0f)};
+        for (int axis = 0; axis < 3; axis++) {
+            if (c[axis] == in[axis]) continue;
+            face_cell(c, in, axis, f);
+            const float4 own = diffuse_velocity_at(velocity_in, prev, f[0], f[1], f[2], n, a, false);
+            face[axis] = face_velocity(axis, own, inner);
+        }
+        velocity_out[cell_of(c, n)] = wall_velocity(c, in, walls, face);
+        return;
+    }
+    if (!is_interior(c[0], c[1], c[2], n)) return;  // padding, or a wall cell (a wall item sets it)
+    velocity_out[cell_of(c, n)] = diffuse_velocity_at(velocity_in, prev, c[0], c[1], c[2], n, a, true);
+}
+
+// Divergence into prev.y (walls: the inner cell's, SetBoundaryDiv), p = 0 into prev.x (everywhere: SetBoundaryP has
+// nothing to change).
+INLINE float divergence_at(const __global float4* velocity, int x, int y, int z, int4 n) {
+    const int w = n.x, h = n.y, d = n.z;  // (x, y, z) is interior: all 6 neighbours exist
+    const float du = velocity[cell(x + 1, y, z, n)].x - velocity[cell(x - 1, y, z, n)].x;
+    const float dv = velocity[cell(x, y + 1, z, n)].y - velocity[cell(x, y - 1, z, n)].y;
+    const float dw = velocity[cell(x, y, z + 1, n)].z - velocity[cell(x, y, z - 1, n)].z;
 #if BOOK_VARIANT
-    const float div = -0.5f * (du / w) + dv / h + dw / d;  // book: -0.5 * (uvd.x * du) + (uvd.y * dv) + (uvd.z * dw)
+    return -0.5f * (du / w) + dv / h + dw / d;  // book: -0.5 * (uvd.x * du) + (uvd.y * dv) + (uvd.z * dw)
 #else
-    const float div = -0.5f * (du / w + dv / h + dw / d);  // Stam: -0.5 * h * (du + dv + dw)
+    return -0.5f * (du / w + dv / h + dw / d);  // Stam: -0.5 * h * (du + dv + dw)
 #endif
-    const int id = cell(x, y, z, n);
+}
+
+GRID_KERNEL void ProjectStep1(const __global float4* velocity, __global float4* prev, int w, int h, int d) {
+    const int4 n = (int4)(w, h, d, 0);
+    int c[3] = {get_global_id(0), get_global_id(1), get_global_id(2)};
+    float div;
+    if (is_wall_group(d)) {  // SetBoundaryDiv: the divergence of the inner cell
+        if (!wall_item(n, c)) return;
+        int in[3];
+        const int walls = inner_cell(c, n, in);
+        div = wall_copy(walls, divergence_at(velocity, in[0], in[1], in[2], n));
+    } else {
+        if (!is_interior(c[0], c[1], c[2], n)) return;  // padding, or a wall cell (a wall item sets it)
+        div = divergence_at(velocity, c[0], c[1], c[2], n);
+    }
+    const int id = cell_of(c, n);
     const float4 p = prev[id];
     prev[id] = (float4)(0.0f, div, p.z, p.w);
 }
 
-// Poisson equation sum6(p) - 6p = -div, one Jacobi sweep: p = (div + sum6(p)) / 6.
+// Poisson equation sum6(p) - 6p = -div, one Jacobi sweep: p = (div + sum6(p)) / 6; walls copy the inner cell's new p
+// (SetBoundaryP).
+INLINE float pressure_at(const __global float4* prev_in, int x, int y, int z, int4 n) {
+    return (prev_in[cell(x, y, z, n)].y + neighbours4(prev_in, x, y, z, n, true).x) / 6.0f;  // an interior cell
+}
+
 GRID_KERNEL void ProjectStep2(const __global float4* prev_in, __global float4* prev_out, int w, int h, int d) {
-    const int x = get_global_id(0), y = get_global_id(1), z = get_global_id(2);
-    if (x >= w || y >= h || z >= d) return;
     const int4 n = (int4)(w, h, d, 0);
-    const float4 me = prev_in[cell(x, y, z, n)];
-    prev_out[cell(x, y, z, n)] = (float4)((me.y + neighbours4(prev_in, x, y, z, n).x) / 6.0f, me.yzw);
+    int c[3] = {get_global_id(0), get_global_id(1), get_global_id(2)};
+    float p;
+    if (is_wall_group(d)) {  // SetBoundaryP: this sweep's p of the inner cell
+        if (!wall_item(n, c)) return;
+        int in[3];
+        const int walls = inner_cell(c, n, in);
+        p = wall_copy(walls, pressure_at(prev_in, in[0], in[1], in[2], n));
+    } else {
+        if (!is_interior(c[0], c[1], c[2], n)) return;  // padding, or a wall cell (a wall item sets it)
+        p = pressure_at(prev_in, c[0], c[1], c[2], n);
+    }
+    const int id = cell_of(c, n);
+    prev_out[id] = (float4)(p, prev_in[id].yzw);
 }
 
 // Subtract the gradient of p (central differences, scaled back from uv units: book's / uvd).
 GRID_KERNEL void ProjectStep3(__global float4* velocity, const __global float4* prev, int w, int h, int d) {
-    const int x = get_global_id(0), y = get_global_id(1), z = get_global_id(2);
-    if (x >= w || y >= h || z >= d) return;
+    CELL_OR_RETURN(w, h, d)
+    float4 v = velocity[id];
+    v.x -= 0.5f * (ld4(prev, x + 1, y, z, n, false).x - ld4(prev, x - 1, y, z, n, false).x) * (float)w;
+    v.y -= 0.5f * (ld4(prev, x, y + 1, z, n, false).x - ld4(prev, x, y - 1, z, n, false).x) * (float)h;
+    v.z -= 0.5f * (ld4(prev, x, y, z + 1, n, false).x - ld4(prev, x, y, z - 1, n, false).x) * (float)d;
+    velocity[id] = v;
+}
+
+// The velocity's walls, one work-item per wall cell (global >= w*h*d - (w-2)(h-2)(d-2)). A face cell writes only its
+// normal component; an edge or corner reads the inner cell and, of each face cell it depends on, only the components
+// that face cell does not write (float pointers: no byte is read while another work-item writes it).
+__kernel void SetBoundaryVelocity(__global float4* velocity, int w, int h, int d) {
     const int4 n = (int4)(w, h, d, 0);
-    float4 v = velocity[cell(x, y, z, n)];
-    v.x -= 0.5f * (ld4(prev, x + 1, y, z, n).x - ld4(prev, x - 1, y, z, n).x) * (float)w;
-    v.y -= 0.5f * (ld4(prev, x, y + 1, z, n).x - ld4(prev, x, y - 1, z, n).x) * (float)h;
-    v.z -= 0.5f * (ld4(prev, x, y, z + 1, n).x - ld4(prev, x, y, z - 1, n).x) * (float)d;
-    velocity[cell(x, y, z, n)] = v;
+    int c[3], in[3];
+    if (!boundary_cell(get_global_id(0), n, c)) return;  // padding of the rounded-up global size
+    const int walls = inner_cell(c, n, in);
+    __global float* v = (__global float*)velocity;  // cell j: u, v, w, 0 at v[4j .. 4j + 3]
+    const int inner = cell_of(in, n);
+    if (walls == 1) {
+        const int axis = c[0] != in[0] ? 0 : c[1] != in[1] ? 1 : 2;
+        v[4 * cell_of(c, n) + axis] = -v[4 * inner + axis];
+        return;
+    }
+    float4 face[3] = {(float4)(0.0f), (float4)(0.0f), (float4)(0.0f)};
+    for (int axis = 0; axis < 3; axis++) {
+        if (c[axis] == in[axis]) continue;
+        int f[3];
+        face_cell(c, in, axis, f);
+        const int k = 4 * cell_of(f, n);
+        float4 own;  // the face cell's components its own work-item leaves alone (its normal one is set below)
+        own.x = axis == 0 ? 0.0f : v[k];
+        own.y = axis == 1 ? 0.0f : v[k + 1];
+        own.z = axis == 2 ? 0.0f : v[k + 2];
+        own.w = v[k + 3];
+        face[axis] = face_velocity(axis, own, (float4)(v[4 * inner], v[4 * inner + 1], v[4 * inner + 2], 0.0f));
+    }
+    velocity[cell_of(c, n)] = wall_velocity(c, in, walls, face);
 }
 
 GRID_KERNEL void SwapVelocity(const __global float4* velocity, __global float4* prev, int w, int h, int d) {
-    const int x = get_global_id(0), y = get_global_id(1), z = get_global_id(2);
-    if (x >= w || y >= h || z >= d) return;
-    const int id = cell(x, y, z, (int4)(w, h, d, 0));
+    CELL_OR_RETURN(w, h, d)
     prev[id] = (float4)(velocity[id].xyz, prev[id].w);
 }
 
 // Semi-Lagrangian self-advection: back-trace by the cell's own copied velocity, dfdt cells per unit velocity.
+INLINE float4 advect_velocity_at(const __global float4* prev, int x, int y, int z, int4 n, float dfdt) {
+    const float3 b = clamp_back_trace((float3)(x, y, z) - dfdt * prev[cell(x, y, z, n)].xyz, n);
+    return (float4)(trilinear(prev, b, n).xyz, 0.0f);
+}
+
 GRID_KERNEL void AdvectVelocity(const __global float4* prev, __global float4* velocity, int w, int h, int d, float dt) {
-    const int x = get_global_id(0), y = get_global_id(1), z = get_global_id(2);
-    if (x >= w || y >= h || z >= d) return;
     const int4 n = (int4)(w, h, d, 0);
     const float dfdt = dt * (float)(w + h + d) / 3.0f;
-    const float3 b = clamp_back_trace((float3)(x, y, z) - dfdt * prev[cell(x, y, z, n)].xyz, n);
-    velocity[cell(x, y, z, n)] = (float4)(trilinear(prev, b, n).xyz, 0.0f);
+    int c[3] = {get_global_id(0), get_global_id(1), get_global_id(2)};
+    if (is_wall_group(d)) {  // SetBoundaryVelocity from the advected values of the cells the rule reads
+        if (!wall_item(n, c)) return;
+        int in[3], f[3];
+        const int walls = inner_cell(c, n, in);
+        const float4 inner = advect_velocity_at(prev, in[0], in[1], in[2], n, dfdt);
+        float4 face[3] = {(float4)(0.0f), (float4)(0.0f), (float4)(0.0f)};
+        for (int axis = 0; axis < 3; axis++) {
+            if (c[axis] == in[axis]) continue;
+            face_cell(c, in, axis, f);
+            face[axis] = face_velocity(axis, advect_velocity_at(prev, f[0], f[1], f[2], n, dfdt), inner);
+        }
+        velocity[cell_of(c, n)] = wall_velocity(c, in, walls, face);
+        return;
+    }
+    if (!is_interior(c[0], c[1], c[2], n)) return;  // padding, or a wall cell (a wall item sets it)
+    velocity[cell_of(c, n)] = advect_velocity_at(prev, c[0], c[1], c[2], n, dfdt);
 }
 
 // }}}
@@ -346,60 +448,99 @@ GRID_KERNEL void AdvectVelocity(const __global float4* prev, __global float4* ve
 
 GRID_KERNEL void AddSourceDensity(__global float* density, __global float4* prev, const __global float4* source,
                                   int w, int h, int d, float density_coef, float dt) {
-    const int x = get_global_id(0), y = get_global_id(1), z = get_global_id(2);
-    if (x >= w || y >= h || z >= d) return;
-    const int id = cell(x, y, z, (int4)(w, h, d, 0));
+    CELL_OR_RETURN(w, h, d)
     const float s = source[id].w * density_coef * dt;
     density[id] += s;
     prev[id].w = s;
 }
 
+// Walls copy the inner cell's new value (SetBoundaryDensity).
+INLINE float diffuse_density_at(const __global float* density_in, const __global float4* prev, int x, int y, int z,
+                                int4 n, float a) {
+    return (prev[cell(x, y, z, n)].w + a * neighbours(density_in, x, y, z, n, true)) / (1.0f + 6.0f * a);  // interior
+}
+
 GRID_KERNEL void DiffuseDensity(const __global float* density_in, const __global float4* prev,
                                 __global float* density_out, int w, int h, int d, float dt, float diff) {
-    const int x = get_global_id(0), y = get_global_id(1), z = get_global_id(2);
-    if (x >= w || y >= h || z >= d) return;
     const int4 n = (int4)(w, h, d, 0);
     const float a = dt * diff * (float)w * (float)h * (float)d;
-    density_out[cell(x, y, z, n)] =
-        (prev[cell(x, y, z, n)].w + a * neighbours(density_in, x, y, z, n)) / (1.0f + 6.0f * a);
+    int c[3] = {get_global_id(0), get_global_id(1), get_global_id(2)};
+    float value;
+    if (is_wall_group(d)) {  // SetBoundaryDensity: this sweep's value of the inner cell
+        if (!wall_item(n, c)) return;
+        int in[3];
+        const int walls = inner_cell(c, n, in);
+        value = wall_copy(walls, diffuse_density_at(density_in, prev, in[0], in[1], in[2], n, a));
+    } else {
+        if (!is_interior(c[0], c[1], c[2], n)) return;  // padding, or a wall cell (a wall item sets it)
+        value = diffuse_density_at(density_in, prev, c[0], c[1], c[2], n, a);
+    }
+    density_out[cell_of(c, n)] = value;
 }
 
 GRID_KERNEL void SwapDensity(const __global float* density, __global float4* prev, int w, int h, int d) {
-    const int x = get_global_id(0), y = get_global_id(1), z = get_global_id(2);
-    if (x >= w || y >= h || z >= d) return;
-    const int id = cell(x, y, z, (int4)(w, h, d, 0));
+    CELL_OR_RETURN(w, h, d)
     prev[id].w = density[id];
 }
 
-// Back-trace by the velocity after the second projection; the density copy lives in prev.w (the original samples
-// prev.z, the velocity's z: fixed).
+// Back-trace by `carrier` (the velocity after the second projection, or the source's xyz) and sample the density
+// copy in prev.w (the original samples prev.z, the velocity's z: fixed); walls copy the inner cell's value
+// (SetBoundaryDensity).
+INLINE float advect_density_at(const __global float4* carrier, const __global float4* prev, int x, int y, int z,
+                               int4 n, float dfdt) {
+    const float3 b = clamp_back_trace((float3)(x, y, z) - dfdt * carrier[cell(x, y, z, n)].xyz, n);
+    return trilinear(prev, b, n).w;
+}
+
+INLINE void advect_density(const __global float4* carrier, const __global float4* prev, __global float* density,
+                           int4 n, float dt) {
+    const float dfdt = dt * (float)(n.x + n.y + n.z) / 3.0f;
+    int c[3] = {get_global_id(0), get_global_id(1), get_global_id(2)};
+    float value;
+    if (is_wall_group(n.z)) {  // the inner cell's advected value
+        if (!wall_item(n, c)) return;
+        int in[3];
+        const int walls = inner_cell(c, n, in);
+        value = wall_copy(walls, advect_density_at(carrier, prev, in[0], in[1], in[2], n, dfdt));
+    } else {
+        if (!is_interior(c[0], c[1], c[2], n)) return;  // padding, or a wall cell (a wall item sets it)
+        value = advect_density_at(carrier, prev, c[0], c[1], c[2], n, dfdt);
+    }
+    density[cell_of(c, n)] = value;
+}
+
 GRID_KERNEL void AdvectDensity(const __global float4* velocity, const __global float4* prev, __global float* density,
                                int w, int h, int d, float dt) {
-    const int x = get_global_id(0), y = get_global_id(1), z = get_global_id(2);
-    if (x >= w || y >= h || z >= d) return;
-    const int4 n = (int4)(w, h, d, 0);
-    const float dfdt = dt * (float)(w + h + d) / 3.0f;
-    const float3 b = clamp_back_trace((float3)(x, y, z) - dfdt * velocity[cell(x, y, z, n)].xyz, n);
-    density[cell(x, y, z, n)] = trilinear(prev, b, n).w;
+    advect_density(velocity, prev, density, (int4)(w, h, d, 0), dt);
 }
 
 // density_only: the source's velocity replaces the solved one (the original samples the source at uvw = 0).
 GRID_KERNEL void AdvectDensityFromExt(const __global float4* source, const __global float4* prev,
                                       __global float* density, int w, int h, int d, float dt) {
-    const int x = get_global_id(0), y = get_global_id(1), z = get_global_id(2);
-    if (x >= w || y >= h || z >= d) return;
-    const int4 n = (int4)(w, h, d, 0);
-    const float dfdt = dt * (float)(w + h + d) / 3.0f;
-    const float3 b = clamp_back_trace((float3)(x, y, z) - dfdt * source[cell(x, y, z, n)].xyz, n);
-    density[cell(x, y, z, n)] = trilinear(prev, b, n).w;
+    advect_density(source, prev, density, (int4)(w, h, d, 0), dt);
 }
 
 // }}}
 
 GRID_KERNEL void Draw(const __global float4* velocity, const __global float* density, __global float4* solver, int w,
                       int h, int d) {
-    const int x = get_global_id(0), y = get_global_id(1), z = get_global_id(2);
-    if (x >= w || y >= h || z >= d) return;
-    const int id = cell(x, y, z, (int4)(w, h, d, 0));
+    CELL_OR_RETURN(w, h, d)
     solver[id] = (float4)(velocity[id].xyz, density[id]);
 }
+
+// {{{ the other boundary rules on their own (Simulation.set_boundary_*; the kernels above apply them in step())
+
+// One work-item per wall cell for each (global >= w*h*d - (w-2)(h-2)(d-2)).
+__kernel void SetBoundaryDensity(__global float* density, int w, int h, int d) {
+    set_boundary_copy(density, 1, 0, (int4)(w, h, d, 0));
+}
+
+__kernel void SetBoundaryDiv(__global float4* prev, int w, int h, int d) {
+    set_boundary_copy((__global float*)prev, 4, 1, (int4)(w, h, d, 0));  // prev.y = div
+}
+
+__kernel void SetBoundaryP(__global float4* prev, int w, int h, int d) {
+    set_boundary_copy((__global float*)prev, 4, 0, (int4)(w, h, d, 0));  // prev.x = p
+}
+
+// }}}

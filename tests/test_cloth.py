@@ -168,6 +168,29 @@ def test_cs_simulation_matches_reference(runtime, res, seed):
         assert moved.max() > 1e-4, "the sphere and springs should move some particles measurably"
 
 
+def test_live_parameters_and_a_new_sphere_reach_the_next_substep(runtime, seed):
+    """CSSimulation's scalar arguments are made once per Params object and sphere array: an update() of live
+    fields, or a new sphere_params, must still reach the very next launch (checked against the reference)."""
+    width, height, rest = 15, 11, 0.05
+    sim = make(runtime, (width, height), rest_length=rest, timestep=0.005, substeps=1)
+    pos, prev = perturbed(width, height, rest, seed)
+    sim.set_positions(pos, prev)
+    sim.cs_simulation()
+    sim.update(stiffness=2500.0, damp=0.5, mass=2.0, gravity=(0.5, -3.0, 1.0), timestep=0.004)
+    sim.sphere_params = np.array([0.0, -0.2 * height * rest, 0.02, 0.25 * width * rest], np.float32)
+    normal_before = sim.read("normal")[..., :3]
+    before = sim.state()
+    sim.cs_simulation()
+    expected_pos, expected_prev, _, _ = cloth_step_reference(
+        before["pos"], before["prev_last"], normal_before, **reference_args(sim.params, sim.sphere_params)
+    )
+    after = sim.state()
+    for name, actual, expected in (("pos", after["pos"], expected_pos), ("prev", after["prev_last"], expected_prev)):
+        assert np.allclose(actual, expected, rtol=1e-5, atol=1e-6), f"{name}: " + first_mismatch(
+            actual.reshape(-1, 3), expected.reshape(-1, 3), 1e-5, 1e-6
+        )
+
+
 def test_collision_pushes_particles_to_the_sphere_surface(runtime):
     sim = make(runtime, (16, 16), rest_length=0.05, timestep=0.005, substeps=1, gravity=(0.0, 0.0, 0.0))
     sim.sphere_params = np.array([0.0, -0.1, 0.05, 0.3], np.float32)  # centre just behind the flat cloth

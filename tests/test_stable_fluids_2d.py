@@ -5,6 +5,7 @@ Grids are deliberately non-square and not multiples of the work-group shape (37 
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 
@@ -12,8 +13,9 @@ import numpy as np
 import pytest
 from helpers import first_mismatch
 
+from ugpcl.runtime import KERNEL_DIR, Kernel
 from ugpcl.scenes import get
-from ugpcl.scenes.stable_fluids_2d import Params, Simulation
+from ugpcl.scenes.stable_fluids_2d import KERNELS, Params, Simulation
 
 W, H = 37, 23
 RADIUS = 0.08  # spec 04 section 8: 0.022 covers only a few cells below 128^2
@@ -312,6 +314,34 @@ def test_boundary_kernels_are_exact(runtime, seed, variant):
     np.testing.assert_array_equal(s["prev"][..., 1:], f["prev"][..., 1:])  # only p changed
 
 
+PRODUCERS = {
+    "diffuse_velocity": ("velocity", "set_boundary_velocity", lambda sim: sim.diffuse_velocity(DT, 1)),
+    "advect_velocity": ("velocity", "set_boundary_velocity", lambda sim: sim.advect_velocity(DT)),
+    "diffuse_density": ("density", "set_boundary_density", lambda sim: sim.diffuse_density(DT, 1)),
+    "advect_density": ("density", "set_boundary_density", lambda sim: sim.advect_density(DT)),
+    "advect_density_from_ext": ("density", "set_boundary_density", lambda sim: sim.advect_density_from_ext(DT)),
+    "project_step1": ("prev", "set_boundary_divergence", lambda sim: sim.project_step1()),
+    "project_step2": ("prev", "set_boundary_div_positive", lambda sim: sim.project_step2(1)),
+}
+
+
+@pytest.mark.parametrize("variant", VARIANTS)
+@pytest.mark.parametrize("producer", sorted(PRODUCERS))
+@pytest.mark.parametrize("w, h", [(W, H), (3, 3), (4, 7)])
+def test_kernels_leave_walls_their_boundary_kernel_would_not_change(runtime, seed, variant, producer, w, h):
+    """The kernels that apply a boundary rule themselves compute a wall cell from the cells the rule reads (the
+    book's in-kernel SetBoundary* calls, without their race): their output is a fixed point of the separate
+    SetBoundary* kernel, bit for bit. With the reference tests above (interior values), this pins every cell."""
+    field, boundary, run = PRODUCERS[producer]
+    rng = np.random.default_rng(seed)
+    sim = make(runtime, w, h, variant=variant, visc=0.01, diff=0.02)  # a ~ 1: the sweeps do not just average
+    sim.set_fields(**random_fields(rng, w, h))
+    run(sim)
+    produced = sim.state()[field]
+    getattr(sim, boundary)()
+    np.testing.assert_array_equal(sim.state()[field], produced)
+
+
 @pytest.mark.parametrize("variant", VARIANTS)
 def test_advection_matches_reference(runtime, seed, variant):
     rng = np.random.default_rng(seed)
@@ -374,6 +404,24 @@ def test_whole_steps_match_the_books_order(runtime, seed, overrides):
         for key in ("velocity", "density", "prev"):
             scale = max(np.abs(expected[key]).max(), 1e-3)
             close(s[key], expected[key], 0, 1e-5 * scale)  # float32 rounding through ~50 launches
+
+
+def test_a_step_is_22_launches_and_the_kernel_file_lists_them_in_order(runtime, monkeypatch):
+    """The host calls the kernels in the order the .cl header lists them (and the file defines them); a default step
+    with the brush held is 22 launches (each boundary rule inside its kernel but after ProjectStep3)."""
+    source = (KERNEL_DIR / "stable_fluids_2d.cl").read_text()
+    assert tuple(re.findall(r"^(?:GRID_KERNEL|__kernel)\s+void\s+(\w+)", source, re.M)) == KERNELS
+    header = source[source.index("Kernels, in host call order") : source.index("#ifndef THREAD_X")]
+    first = [re.search(rf"\b{name}\b", header).start() for name in KERNELS]
+    assert first == sorted(first), "the header lists the kernels out of order"
+
+    sim = make(runtime, 64, 48, stroke="circle", stroke_frames=0)
+    sim.step()
+    launched = []
+    call = Kernel.__call__
+    monkeypatch.setattr(Kernel, "__call__", lambda self, *args: launched.append(self.name) or call(self, *args))
+    sim.step()
+    assert len(launched) == 22, launched
 
 
 # }}}

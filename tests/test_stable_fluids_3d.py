@@ -3,12 +3,15 @@ the solver's invariants, the headless CLI, the ray-marched view, Oclgrind."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from helpers import first_mismatch, foreground
 
+from ugpcl.runtime import KERNEL_DIR
 from ugpcl.scenes import get
-from ugpcl.scenes.stable_fluids_3d import Params, Simulation
+from ugpcl.scenes.stable_fluids_3d import KERNELS, Params, Simulation
 
 SIZES = [(19, 17, 13), (16, 16, 16), (3, 4, 5)]
 """(w, h, d): non-cubic and no multiple of the (8, 8, 4) work-group (spec 04 section 8), cubic, the smallest grid."""
@@ -252,6 +255,44 @@ def test_boundary_kernels_match_reference_exactly(runtime, shape, kind, seed):
     interior = (slice(1, -1),) * 3
     np.testing.assert_array_equal(actual[interior], expected[interior])  # and the interior untouched
     assert (actual != (before[..., :3] if kind == "velocity" else before)).any(), "the boundary pass changed nothing"
+
+
+PRODUCERS = {
+    "diffuse_velocity": ("velocity", "set_boundary_velocity", lambda sim: sim.diffuse_velocity(DT, 1)),
+    "advect_velocity": ("velocity", "set_boundary_velocity", lambda sim: sim.advect_velocity(DT)),
+    "diffuse_density": ("density", "set_boundary_density", lambda sim: sim.diffuse_density(DT, 1)),
+    "advect_density": ("density", "set_boundary_density", lambda sim: sim.advect_density(DT)),
+    "advect_density_from_ext": ("density", "set_boundary_density", lambda sim: sim.advect_density_from_ext(DT)),
+    "project_step1": ("prev", "set_boundary_div", lambda sim: sim.project_step1()),
+    "project_step2": ("prev", "set_boundary_p", lambda sim: sim.project_step2(1)),
+}
+
+
+@pytest.mark.parametrize("variant", ["fixed", "book"])
+@pytest.mark.parametrize("producer", sorted(PRODUCERS))
+@pytest.mark.parametrize("shape", [(7, 6, 5), (3, 4, 5)])
+def test_kernels_leave_walls_their_boundary_kernel_would_not_change(runtime, seed, variant, producer, shape):
+    """The kernels that apply a boundary rule themselves compute a wall cell from the cells the rule reads (the
+    book's in-kernel SetBoundary* calls, without their race): their output is a fixed point of the separate
+    SetBoundary* kernel, bit for bit. With the reference tests (interior values), this pins every cell."""
+    field, boundary_kernel, run = PRODUCERS[producer]
+    rng = np.random.default_rng(seed)
+    sim = make(runtime, shape, variant=variant, visc=1e-4, diff=2e-4)  # a ~ 1: the sweeps do not just average
+    velocity, density, prev = random_fields(rng, shape)
+    sim.set_fields(velocity=velocity, density=density, prev=prev)
+    sim.set_source(rng.normal(0.0, 1.0, (*sim.shape, 4)))
+    run(sim)
+    produced = sim.state()[field]
+    getattr(sim, boundary_kernel)()
+    np.testing.assert_array_equal(sim.state()[field], produced)
+
+
+def test_the_kernel_file_lists_the_kernels_in_host_call_order():
+    source = (KERNEL_DIR / "stable_fluids_3d.cl").read_text()
+    assert tuple(re.findall(r"^(?:GRID_KERNEL|__kernel)\s+void\s+(\w+)", source, re.M)) == KERNELS
+    header = source[source.index("Kernels, in host call order") : source.index("#ifndef THREAD_X")]
+    first = [re.search(rf"\b{name}\b", header).start() for name in KERNELS]
+    assert first == sorted(first), "the header lists the kernels out of order"
 
 
 # }}}

@@ -19,15 +19,24 @@ def seconds_per_step(sim, min_seconds: float = 1.0, max_steps: int = 200, dt: fl
     return (time.perf_counter() - start) / steps
 
 
-def seconds_per_call(fn, queue, min_seconds: float = 0.5, max_calls: int = 1000) -> float:
-    """Seconds per ``fn()`` for kernels that are not a whole step (one warm-up call)."""
+def seconds_per_call(fn, queue, min_seconds: float = 0.5, max_calls: int = 1000, batch: int = 1) -> float:
+    """Seconds per ``fn()`` for kernels that are not a whole step (one warm-up call, not timed).
+
+    ``batch`` = how many calls run back to back before the queue is finished: 1 (default) times a call that
+    waits for its result, as a step's one-off kernel; K > 1 times a call inside a loop, as a Jacobi sweep of a
+    solve or a substep of a frame, where the host enqueues the next launch while the device runs the last and
+    one finish ends the loop (the finish's cost is shared by the K calls). Batches repeat until ``min_seconds``
+    have passed or ``max_calls`` calls ran (at least one batch); the result is the mean over every timed call."""
+    if batch < 1:
+        raise ValueError(f"batch must be >= 1, got {batch}")
     fn()
     queue.finish()
     calls, start = 0, time.perf_counter()
-    while calls < max_calls and (calls == 0 or time.perf_counter() - start < min_seconds):
-        fn()
+    while calls == 0 or (calls + batch <= max_calls and time.perf_counter() - start < min_seconds):
+        for _ in range(batch):
+            fn()
         queue.finish()
-        calls += 1
+        calls += batch
     return (time.perf_counter() - start) / calls
 
 

@@ -1,24 +1,30 @@
-"""Stable fluids in 2D: Stam's grid solver painted with a brush, shown as black ink on white (vol.1 ch.4; spec 04).
+"""Stable fluids in 2D: Stam's grid solver painted with a brush, shown as black ink on white (vol.1 ch.4;
+docs/chapters/04-stable-fluids-2d.md).
 
-Kernel order per step (``clkernels/stable_fluids_2d.cl``; B = the field's SetBoundary* kernel, edges then corners):
+Kernel order per step (``clkernels/stable_fluids_2d.cl``; +B = the kernel applies the field's boundary rule itself,
+as the book's kernels call their SetBoundary* helper at the end):
 
     AddSourceBrush                                               (brush held: mouse drag or the scripted stroke)
     velocity step (unless density_only):
-      [AddSourceVelocity] -> gs x (DiffuseVelocity, B) -> Project -> SwapVelocity -> AdvectVelocity, B -> Project
+      [AddSourceVelocity] -> gs x DiffuseVelocity+B -> Project -> SwapVelocity -> AdvectVelocity+B -> Project
     density step:
-      [AddSourceDensity] -> gs x (DiffuseDensity, B) -> SwapDensity -> AdvectDensity (AdvectDensityFromExt), B
+      [AddSourceDensity] -> gs x DiffuseDensity+B -> SwapDensity -> AdvectDensity+B (AdvectDensityFromExt+B)
     Draw
-    Project = ProjectStep1, SetBoundaryDivergence, SetBoundaryDivPositive -> gs x (ProjectStep2, B) -> ProjectStep3, B
+    Project = ProjectStep1+B(Divergence) -> gs x ProjectStep2+B(DivPositive) -> ProjectStep3 -> SetBoundaryVelocity
 
-The AddSource kernels run only on frames with the brush held (the original passes no source texture otherwise), so
-``prev`` keeps its leftovers as the book's does. ``solver=vol4`` is the stripped copy of this solver that vol.4 ch.6
-(Tessellation) drives: no pressure sweeps (p stays 0) and no AdvectVelocity (spec 17, pitfall 5).
+A default step (gs_iterations 2, brush held) is 22 launches. The AddSource kernels run only on frames with the brush
+held (the original passes no source texture otherwise), so ``prev`` keeps its leftovers as the book's does.
+``solver=vol4`` is the stripped copy of this solver that vol.4 ch.6 (Tessellation) drives: no pressure sweeps (p
+stays 0) and no AdvectVelocity (docs/chapters/17-tessellation.md).
 
 Differences from the book: one Jacobi sweep per launch between ping-pong buffers instead of the racy in-place
-Gauss-Seidel; boundary rules as separate launches; guarded global sizes (the original skips partial 32x32 groups);
-zero-padded neighbour reads; float32 fields (the original: half). ``variant=fixed`` (default) uses Stam's divergence
-and clamps the back-trace; ``variant=book`` keeps the original's divergence precedence bug, the unclamped
-back-trace and the divergence-corner typo (spec 04 section 10). A scripted ``stroke`` replaces the mouse headless.
+Gauss-Seidel; the walls are set by extra work-groups past the grid (``SETS_WALLS``), one work-item per wall cell
+computing the kernel's value at the cells its rule reads, instead of reading cells other work-items write (the
+results of a sweep followed by separate edge and corner passes, bit for bit); guarded global sizes (the original
+skips partial 32x32 groups); zero-padded reads where a read may leave the grid; float32 fields (the original: half).
+``variant=fixed`` (default) uses Stam's divergence and clamps the back-trace; ``variant=book`` keeps the original's
+divergence precedence bug and the unclamped back-trace (docs/chapters/04-stable-fluids-2d.md, "What differs from the
+book"). A scripted ``stroke`` replaces the mouse headless.
 """
 
 from __future__ import annotations
@@ -40,10 +46,35 @@ from ..scene import Simulation as BaseSimulation
 STEM = "stable_fluids_2d"
 MAX_CELLS = 1 << 24
 """Largest grid accepted (w*h = 16.8M cells: 4096^2, about 800 MB of fields)."""
-BOUNDARY_EDGES, BOUNDARY_CORNERS = 0, 1
-"""SetBoundary* launch parts, in order (BOUNDARY_EDGES, BOUNDARY_CORNERS in stable_fluids_2d.cl)."""
+KERNELS = (
+    "AddSourceBrush",
+    "AddSourceVelocity",
+    "DiffuseVelocity",
+    "ProjectStep1",
+    "ProjectStep2",
+    "ProjectStep3",
+    "SetBoundaryVelocity",
+    "SwapVelocity",
+    "AdvectVelocity",
+    "AddSourceDensity",
+    "DiffuseDensity",
+    "SwapDensity",
+    "AdvectDensity",
+    "AdvectDensityFromExt",
+    "Draw",
+    "SetBoundaryDensity",
+    "SetBoundaryDivergence",
+    "SetBoundaryDivPositive",
+)
+"""The kernels of stable_fluids_2d.cl in host call order (its header's list); the last three only for set_boundary_*."""
+SETS_WALLS = frozenset(
+    {"DiffuseVelocity", "ProjectStep1", "ProjectStep2", "AdvectVelocity", "DiffuseDensity", "AdvectDensity"}
+    | {"AdvectDensityFromExt"}
+)
+"""Kernels that apply their field's boundary rule themselves: launched with extra rows of work-items past the grid,
+one per wall cell (2(w-2) + 2(h-2) + 4 of them), as stable_fluids_2d.cl's wall_item() expects."""
 STROKE_PERIOD = 120
-"""Frames of one pass of a scripted stroke (spec 04 section 7: the line takes 120 frames, the circle one turn)."""
+"""Frames of one pass of a scripted stroke (the line takes 120 frames, the circle one turn)."""
 STROKES = ("circle", "line", "figure8", "none")
 
 
@@ -118,26 +149,38 @@ class Simulation(BaseSimulation):
         self.pending_brush: tuple[float, float, float, float] | None = None
         self.last_brush: tuple[float, float, float, float] | None = None
         self.stroke_start = 0
+        self._config_key = self._configured_for = None  # sizes and kernels follow the grid, local_size, variant
 
     # {{{ programs and launches
 
     def _configure(self) -> None:
-        """Work-group shape and program for the current local_size and variant (both live: cached per pair)."""
-        key = (self.params.local_size, self.params.variant)
-        if getattr(self, "_config_key", None) == key:
-            return
-        device = self.runtime.device
-        size = list(self.params.local_size)  # halve the larger side until the device can run the shape
-        while size[0] * size[1] > device.max_work_group_size or any(
-            s > m for s, m in zip(size, device.max_work_item_sizes[:2], strict=True)
-        ):
-            largest = size.index(max(size))
-            size[largest] = max(1, size[largest] // 2)
-        self._local = (size[0], size[1])
-        self._program = self.runtime.program(
-            STEM, THREAD_X=size[0], THREAD_Y=size[1], BOOK_VARIANT=self.params.variant == "book"
-        )
-        self._config_key = key
+        """Work-group shape, global size and kernels for the current local_size and variant (both live). Called when
+        ``params`` is a new object (``update`` replaces it); a pair seen before reuses the runtime's built program."""
+        p = self.params
+        key = (p.local_size, p.variant)
+        if self._config_key != key:
+            device = self.runtime.device
+            size = list(p.local_size)  # halve the larger side until the device can run the shape
+            while size[0] * size[1] > device.max_work_group_size or any(
+                s > m for s, m in zip(size, device.max_work_item_sizes[:2], strict=True)
+            ):
+                largest = size.index(max(size))
+                size[largest] = max(1, size[largest] // 2)
+            self._local = (size[0], size[1])
+            grid = (round_up(self.w, size[0]), round_up(self.h, size[1]))
+            # the kernels that set the walls themselves: rows past the grid hold one work-item per wall cell
+            walls = 2 * self.w + 2 * self.h - 4
+            wall_groups = -(-walls // (size[0] * size[1]))  # ceil
+            wall_rows = -(-wall_groups // (grid[0] // size[0]))  # rows of work-groups the wall cells fill
+            with_walls = (grid[0], grid[1] + wall_rows * size[1])
+            self._program = self.runtime.program(
+                STEM, THREAD_X=size[0], THREAD_Y=size[1], BOOK_VARIANT=p.variant == "book"
+            )
+            self._launches = {
+                name: (self._program.kernel(name), with_walls if name in SETS_WALLS else grid) for name in KERNELS
+            }
+            self._config_key = key
+        self._configured_for = p
 
     @property
     def local_size(self) -> tuple[int, int]:
@@ -151,23 +194,22 @@ class Simulation(BaseSimulation):
         return self._program
 
     def _grid(self, name: str, *args) -> None:
-        """Launch a grid kernel over every cell: its buffers first, then w, h, then the scalars."""
-        buffers = [a.data for a in args if isinstance(a, cla.Array)]
-        scalars = [a for a in args if not isinstance(a, cla.Array)]
-        local = self.local_size
-        size = (round_up(self.w, local[0]), round_up(self.h, local[1]))
-        self.program.kernel(name)(size, local, *buffers, *self.dims, *scalars)
+        """Launch a grid kernel over every cell (a SETS_WALLS kernel also over its wall work-groups); ``args`` in the
+        kernel's order (buffers, w, h, scalars)."""
+        if self.params is not self._configured_for:
+            self._configure()
+        kernel, size = self._launches[name]
+        kernel(size, self._local, *args)
 
     def _boundary(self, name: str, field: cla.Array) -> None:
-        """SetBoundary<name> on ``field``: the edges (reading interior cells), then the corners (reading edges)."""
-        kernel = self.program.kernel(f"SetBoundary{name}")
-        edges = 2 * (self.w - 2) + 2 * (self.h - 2)
-        for part, size in ((BOUNDARY_EDGES, edges), (BOUNDARY_CORNERS, 4)):
-            kernel((size,), None, field.data, *self.dims, np.int32(part))
+        """SetBoundary<name> on ``field``: one launch over the 2(w-2) + 2(h-2) edge cells and the 4 corners."""
+        if self.params is not self._configured_for:
+            self._configure()
+        self._launches[f"SetBoundary{name}"][0](2 * self.w + 2 * self.h - 4, None, field, *self.dims)
 
     # }}}
 
-    # {{{ boundaries (the book's in-kernel SetBoundary* helpers)
+    # {{{ boundaries on their own (step() has the kernels apply them, as the book's in-kernel SetBoundary* calls)
 
     def set_boundary_density(self) -> None:
         self._boundary("Density", self.density.read)
@@ -187,44 +229,43 @@ class Simulation(BaseSimulation):
 
     def add_source_brush(self, u: float, v: float, du: float, dv: float) -> None:
         """AddSourceBrush: the brush at uv (u, v) moving (du, dv) cells this frame, into ``source``."""
+        radius = np.float32(self.params.source_radius)
         self._grid(
-            "AddSourceBrush",
-            self.source,
-            cltypes.make_float2(u, v),
-            cltypes.make_float2(du, dv),
-            np.float32(self.params.source_radius),
+            "AddSourceBrush", self.source, *self.dims, cltypes.make_float2(u, v), cltypes.make_float2(du, dv), radius
         )
 
     def add_source_velocity(self, dt: float) -> None:
         """AddSourceVelocity: velocity += source.xy*velocity_coef*dt; prev.xy = the same."""
         coef = np.float32(self.params.velocity_coef)
-        self._grid("AddSourceVelocity", self.velocity.read, self.prev.read, self.source, coef, np.float32(dt))
+        self._grid(
+            "AddSourceVelocity", self.velocity.read, self.prev.read, self.source, *self.dims, coef, np.float32(dt)
+        )
 
     def diffuse_velocity(self, dt: float, sweeps: int | None = None) -> None:
-        """DiffuseVelocity: ``sweeps`` (default gs_iterations) Jacobi sweeps, each followed by SetBoundaryVelocity."""
+        """DiffuseVelocity: ``sweeps`` (default gs_iterations) Jacobi sweeps, each setting the walls
+        (SetBoundaryVelocity's rule, applied by the kernel)."""
         a = np.float32(dt * self.params.visc * self.w * self.h)  # book: a = dt * visc * w * h
+        velocity, prev, (w, h) = self.velocity, self.prev.read, self.dims
         for _ in range(self.params.gs_iterations if sweeps is None else sweeps):
-            self._grid("DiffuseVelocity", self.velocity.read, self.velocity.write, self.prev.read, a)
-            self.velocity.swap()
-            self.set_boundary_velocity()
+            self._grid("DiffuseVelocity", velocity.read, velocity.write, prev, w, h, a)
+            velocity.swap()
 
     def project_step1(self) -> None:
-        """ProjectStep1: prev = (0, div, prev.z, 0); SetBoundaryDivergence, SetBoundaryDivPositive."""
-        self._grid("ProjectStep1", self.velocity.read, self.prev.read)
-        self.set_boundary_divergence()
-        self.set_boundary_div_positive()
+        """ProjectStep1: prev = (0, div, prev.z, 0), the walls' div copied from inside (SetBoundaryDivergence's rule;
+        p = 0 everywhere, so SetBoundaryDivPositive's changes nothing)."""
+        self._grid("ProjectStep1", self.velocity.read, self.prev.read, *self.dims)
 
     def project_step2(self, sweeps: int | None = None) -> None:
-        """ProjectStep2: ``sweeps`` (default gs_iterations) Jacobi sweeps for p, each followed by
-        SetBoundaryDivPositive."""
+        """ProjectStep2: ``sweeps`` (default gs_iterations) Jacobi sweeps for p, each setting the walls
+        (SetBoundaryDivPositive's rule, applied by the kernel)."""
+        prev, (w, h) = self.prev, self.dims
         for _ in range(self.params.gs_iterations if sweeps is None else sweeps):
-            self._grid("ProjectStep2", self.prev.read, self.prev.write)
-            self.prev.swap()
-            self.set_boundary_div_positive()
+            self._grid("ProjectStep2", prev.read, prev.write, w, h)
+            prev.swap()
 
     def project_step3(self) -> None:
-        """ProjectStep3: velocity -= 0.5*grad p*(w, h); SetBoundaryVelocity."""
-        self._grid("ProjectStep3", self.velocity.read, self.prev.read)
+        """ProjectStep3: velocity -= 0.5*grad p*(w, h) (in place, as the book); SetBoundaryVelocity."""
+        self._grid("ProjectStep3", self.velocity.read, self.prev.read, *self.dims)
         self.set_boundary_velocity()
 
     def project(self, sweeps: int | None = None) -> None:
@@ -238,44 +279,43 @@ class Simulation(BaseSimulation):
 
     def swap_velocity(self) -> None:
         """SwapVelocity: prev.xy = velocity."""
-        self._grid("SwapVelocity", self.velocity.read, self.prev.read)
+        self._grid("SwapVelocity", self.velocity.read, self.prev.read, *self.dims)
 
     def advect_velocity(self, dt: float) -> None:
-        """AdvectVelocity: velocity = prev.xy at the back-traced point; SetBoundaryVelocity."""
-        self._grid("AdvectVelocity", self.prev.read, self.velocity.read, self._dfdt(dt))
-        self.set_boundary_velocity()
+        """AdvectVelocity: velocity = prev.xy at the back-traced point, walls set (SetBoundaryVelocity's rule)."""
+        self._grid("AdvectVelocity", self.prev.read, self.velocity.read, *self.dims, self._dfdt(dt))
 
     def add_source_density(self, dt: float) -> None:
         """AddSourceDensity: density += source.z*density_coef*dt; prev.z = the same."""
         coef = np.float32(self.params.density_coef)
-        self._grid("AddSourceDensity", self.density.read, self.prev.read, self.source, coef, np.float32(dt))
+        self._grid("AddSourceDensity", self.density.read, self.prev.read, self.source, *self.dims, coef, np.float32(dt))
 
     def diffuse_density(self, dt: float, sweeps: int | None = None) -> None:
-        """DiffuseDensity: ``sweeps`` (default gs_iterations) Jacobi sweeps, each followed by SetBoundaryDensity."""
+        """DiffuseDensity: ``sweeps`` (default gs_iterations) Jacobi sweeps, each setting the walls
+        (SetBoundaryDensity's rule, applied by the kernel)."""
         a = np.float32(dt * self.params.diff * self.w * self.h)  # book: a = dt * diff * w * h
+        density, prev, (w, h) = self.density, self.prev.read, self.dims
         for _ in range(self.params.gs_iterations if sweeps is None else sweeps):
-            self._grid("DiffuseDensity", self.density.read, self.density.write, self.prev.read, a)
-            self.density.swap()
-            self.set_boundary_density()
+            self._grid("DiffuseDensity", density.read, density.write, prev, w, h, a)
+            density.swap()
 
     def swap_density(self) -> None:
         """SwapDensity: prev.z = density."""
-        self._grid("SwapDensity", self.density.read, self.prev.read)
+        self._grid("SwapDensity", self.density.read, self.prev.read, *self.dims)
 
     def advect_density(self, dt: float) -> None:
-        """AdvectDensity: density = prev.z at the point back-traced by the velocity; SetBoundaryDensity."""
-        self._grid("AdvectDensity", self.velocity.read, self.prev.read, self.density.read, self._dfdt(dt))
-        self.set_boundary_density()
+        """AdvectDensity: density = prev.z at the point back-traced by the velocity, walls set (SetBoundaryDensity's
+        rule)."""
+        self._grid("AdvectDensity", self.velocity.read, self.prev.read, self.density.read, *self.dims, self._dfdt(dt))
 
     def advect_density_from_ext(self, dt: float, brush: bool = True) -> None:
         """AdvectDensityFromExt: as AdvectDensity, back-traced by the brush's velocity (zero with no brush)."""
         source = self.source if brush else self.no_source
-        self._grid("AdvectDensityFromExt", source, self.prev.read, self.density.read, self._dfdt(dt))
-        self.set_boundary_density()
+        self._grid("AdvectDensityFromExt", source, self.prev.read, self.density.read, *self.dims, self._dfdt(dt))
 
     def draw(self) -> None:
         """Draw: solver = (u, v, density, 1)."""
-        self._grid("Draw", self.velocity.read, self.density.read, self.solver)
+        self._grid("Draw", self.velocity.read, self.density.read, self.solver, *self.dims)
 
     def _dfdt(self, dt: float) -> np.float32:
         return np.float32(dt * (self.w + self.h) * 0.5)  # book: dfdt = dt * (w + h) * 0.5, cells per unit velocity
@@ -430,21 +470,29 @@ def kinetic_energy(velocity: np.ndarray) -> float:
     return float(0.5 * np.mean(np.sum(velocity.astype(np.float64) ** 2, axis=-1)))
 
 
+SWEEP_BATCH = 20
+"""Jacobi sweeps the bench runs back to back before it finishes the queue, as a solve of gs_iterations sweeps does."""
+
+
 def bench(runtime, sizes=None) -> list[dict]:
-    """Per n x n grid (scene coefficients, circle stroke held): ms per step (the whole Update: 2 diffusions, 2
-    projections, 2 advections, boundaries), cell updates/s (cells x steps/s), and one Jacobi sweep of the pressure
-    solve (ProjectStep2 + SetBoundaryDivPositive) as Jacobi iterations/s and cell updates/s."""
+    """Per n x n grid (scene coefficients, circle stroke held, gs_iterations 2): ms per step (the whole Update: 2
+    diffusions, 2 projections, 2 advections, 22 launches, the queue finished after each step) and cell updates/s
+    (cells x steps/s); one Jacobi sweep of the pressure solve (ProjectStep2 with its walls, one launch) in us, timed
+    over 20 sweeps back to back and one finish as a solve runs them, as sweeps/s and cell updates/s."""
     sizes = sizes or ([256, 512, 1024, 2048] if runtime.is_gpu else [256, 512, 1024])
     rows = []
     for n in sizes:
         sim = Simulation(runtime, Params(width=n, height=n, stroke_frames=0), seed=0)
         seconds = seconds_per_step(sim, min_seconds=1.0, max_steps=100)
-        sweep = seconds_per_call(lambda sim=sim: sim.project_step2(1), runtime.queue, max_calls=500)
+        sweep = seconds_per_call(
+            lambda sim=sim: sim.project_step2(1), runtime.queue, max_calls=50 * SWEEP_BATCH, batch=SWEEP_BATCH
+        )
         rows.append(
             {
                 "grid": f"{n}^2",
                 "ms/step": seconds * 1e3,
                 "cell updates/s": n * n / seconds,
+                "us/Jacobi sweep": sweep * 1e6,
                 "Jacobi iterations/s": 1.0 / sweep,
                 "Jacobi cell updates/s": n * n / sweep,
             }

@@ -1,5 +1,5 @@
 """Tessellation + displacement driven by a 2D fluid: Unity's Plane, subdivided on the GPU by edge length and raised
-by the fluid's density (vol.4 ch.6 "Tessellation & Displacement"; spec 17).
+by the fluid's density (vol.4 ch.6 "Tessellation & Displacement"; docs/chapters/17-tessellation.md).
 
 The fluid is a ``stable_fluids_2d`` Simulation this scene owns and drives (vol.4's Solver2D.compute is a stripped
 copy of vol.1's): per frame the scripted stroke (or the mouse) holds the brush, the fluid steps, and its density
@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..benchmark import seconds_per_step
 from ..geometry.mesh_io import write_mesh
 from ..geometry.transforms import euler_matrix, perspective
 from ..scene import Params as BaseParams
@@ -355,6 +356,22 @@ class Simulation(BaseSimulation):
         write_mesh(path, vertices, triangles)
 
     # }}}
+
+
+def bench(runtime, sizes=None) -> list[dict]:
+    """Per grid x grid fluid and variant (fixed: vol.1's solver, 22 launches a frame; book: vol.4's stripped copy,
+    no pressure sweeps and no AdvectVelocity), circle stroke held: ms per frame (the fluid's step and the stroke's
+    bookkeeping, the queue finished after each frame) and fluid cell updates/s. The plane is tessellated by GL."""
+    sizes = sizes or ([256, 512, 1024] if runtime.is_gpu else [128, 256])
+    rows = []
+    for n in sizes:
+        for variant in ("fixed", "book"):
+            sim = Simulation(runtime, Params(grid=n, variant=variant), seed=0)
+            seconds = seconds_per_step(sim, min_seconds=1.0, max_steps=100)
+            rows.append(
+                {"grid": f"{n}^2", "variant": variant, "ms/frame": seconds * 1e3, "cell updates/s": n * n / seconds}
+            )
+    return rows
 
 
 SCENES = [
