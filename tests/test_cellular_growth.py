@@ -563,7 +563,9 @@ def test_network_prototype_counts(runtime):
         for _ in range(300):
             sim.step()
         counts.append(int(sim.particle_records()["alive"].sum()))
-    assert counts[0] == 3 and 10 <= counts[1] <= 60 and 120 <= counts[2] <= 800, counts
+    # Which dividable cell or edge Divide takes first follows the atomic append order, which differs between runs
+    # and devices; the ring then grows along one of two paths (seen: [3, 21..25, ~330] and [3, 95..101, 1016]).
+    assert counts[0] == 3 and 10 <= counts[1] <= 120 and 120 <= counts[2] <= 1024, counts
 
 
 # }}}

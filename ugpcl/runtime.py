@@ -20,7 +20,17 @@ import numpy as np
 import pyopencl as cl
 import pyopencl.array as cla
 
-KERNEL_DIR = Path(os.environ.get("UGPCL_KERNELS") or str(resources.files("ugpcl.clkernels")))
+
+def _kernel_dir() -> Path:
+    if os.environ.get("UGPCL_KERNELS"):
+        return Path(os.environ["UGPCL_KERNELS"])
+    try:
+        return Path(str(resources.files("ugpcl.clkernels")))
+    except ModuleNotFoundError:  # a checkout on PYTHONPATH, not installed: the folder beside ugpcl/
+        return Path(__file__).resolve().parents[1] / "clkernels"
+
+
+KERNEL_DIR = _kernel_dir()
 """The ``.cl`` files: the package data of ``ugpcl.clkernels`` (the top-level ``clkernels/`` folder of a checkout,
 installed or editable alike); ``UGPCL_KERNELS`` points elsewhere, e.g. at a folder of edited copies."""
 INCLUDE_DIR = KERNEL_DIR / "include"
