@@ -1,4 +1,4 @@
-// cloth.cl: Unity Graphics Programming vol.4 ch.3, "GPU-Based Cloth Simulation" (spec 14).
+// cloth.cl: Unity Graphics Programming vol.4 ch.3, "GPU-Based Cloth Simulation" (docs/chapters/14-cloth.md).
 // A W x H mass-spring grid: each particle is tied to 12 neighbours (4 structural, 4 shear, 4 "bend" springs that
 // are 2-step diagonals), integrated with position Verlet; the top row is pinned; a sphere pushes particles out.
 // Kernels (the book's Kernels.compute), in host call order:

@@ -37,10 +37,12 @@
 //   DiffuseDensity       density_in, prev.z -> density_out: one Jacobi sweep (gs_iterations times) +B(Density)
 //   SwapDensity          prev.z = density
 //   AdvectDensity        velocity, prev.z -> density: back-trace by the current velocity, bilinear +B(Density)
-//   AdvectDensityFromExt source.xy, prev.z -> density: back-trace by the brush velocity (density_only) +B(Density)
+//   AdvectDensityFromExt  source.xy, prev.z -> density: back-trace by the brush velocity (density_only) +B(Density)
 //   Draw                 velocity, density -> solver = (u, v, density, 1)
-//   SetBoundaryDensity, SetBoundaryDivergence (prev.y), SetBoundaryDivPositive (prev.x): the rules on their own
-//                        (Simulation.set_boundary_*; step() applies them inside the kernels above)
+//   the rules on their own (Simulation.set_boundary_*; step() applies them inside the kernels above):
+//   SetBoundaryDensity   density
+//   SetBoundaryDivergence  prev.y (the divergence)
+//   SetBoundaryDivPositive  prev.x (p)
 //   The SetBoundary* kernels are one launch of 2*(w-2) + 2*(h-2) + 4 work-items (edges, then corners): an edge
 //   reads its inner cell, a corner the interior cell both its edge neighbours copy, and SetBoundaryVelocity's edges
 //   write only their normal component while its corners read only the edges' tangential ones (float pointers, so no
@@ -69,7 +71,6 @@
 // Helpers are always inlined: PoCL keeps a large helper that is called twice as a call per work-item.
 #define INLINE inline __attribute__((always_inline))
 
-#define GRID_KERNEL __kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, 1)))
 // One work-item per cell; padding items of the rounded-up global size leave at once (no kernel has a barrier).
 #define CELL_OR_RETURN(w, h)              \
     const int x = get_global_id(0);       \
@@ -205,7 +206,8 @@ INLINE float bilinear_z(const __global float4* prev, float2 b, int w, int h) {
 // 0. The brush (the original blits Shaders/AddSource.shader into `source` while the mouse button is held).
 // center = brush centre in uv (bottom-left origin), move = mouse delta in pixels (length <= mouse clamp),
 // radius in uv units on both axes, so the brush is an ellipse on a non-square grid, as the original's.
-GRID_KERNEL void AddSourceBrush(__global float4* source, int w, int h, float2 center, float2 move, float radius) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, 1)))
+void AddSourceBrush(__global float4* source, int w, int h, float2 center, float2 move, float radius) {
     CELL_OR_RETURN(w, h)
     const float2 uv = (float2)(((float)x + 0.5f) / (float)w, ((float)y + 0.5f) / (float)h);
     const float2 q = (uv - center) / radius;
@@ -216,8 +218,9 @@ GRID_KERNEL void AddSourceBrush(__global float4* source, int w, int h, float2 ce
 // {{{ velocity step
 
 // 1. External force term: velocity += source.xy*velocityCoef*dt; prev.xy remembers that amount (diffusion reads it).
-GRID_KERNEL void AddSourceVelocity(__global float2* velocity, __global float4* prev, const __global float4* source,
-                                   int w, int h, float velocity_coef, float dt) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, 1)))
+void AddSourceVelocity(__global float2* velocity, __global float4* prev, const __global float4* source,
+                       int w, int h, float velocity_coef, float dt) {
     CELL_OR_RETURN(w, h)
     const float2 s = source[i].xy * velocity_coef * dt;
     velocity[i] += s;
@@ -232,8 +235,9 @@ INLINE float2 diffuse_velocity_at(const __global float2* velocity_in, const __gl
     return (prev[y * w + x].xy + a * sum) / (1.0f + 4.0f * a);
 }
 
-GRID_KERNEL void DiffuseVelocity(const __global float2* velocity_in, __global float2* velocity_out,
-                                 const __global float4* prev, int w, int h, float a) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, 1)))
+void DiffuseVelocity(const __global float2* velocity_in, __global float2* velocity_out,
+                     const __global float4* prev, int w, int h, float a) {
     int x = get_global_id(0), y = get_global_id(1);
     if (is_wall_group(h)) {  // SetBoundaryVelocity from this sweep's values of the cells the rule reads
         if (!wall_item(w, h, &x, &y)) return;
@@ -262,7 +266,8 @@ INLINE float divergence_at(const __global float2* velocity, int x, int y, int w,
 #endif
 }
 
-GRID_KERNEL void ProjectStep1(const __global float2* velocity, __global float4* prev, int w, int h) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, 1)))
+void ProjectStep1(const __global float2* velocity, __global float4* prev, int w, int h) {
     int x = get_global_id(0), y = get_global_id(1);
     float div;
     if (is_wall_group(h)) {  // SetBoundaryDivergence: the divergence of the inner cell
@@ -285,7 +290,8 @@ INLINE float pressure_at(const __global float4* prev_in, int x, int y, int w) {
     return (prev_in[i].y + sum) / 4.0f;
 }
 
-GRID_KERNEL void ProjectStep2(const __global float4* prev_in, __global float4* prev_out, int w, int h) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, 1)))
+void ProjectStep2(const __global float4* prev_in, __global float4* prev_out, int w, int h) {
     int x = get_global_id(0), y = get_global_id(1);
     float p;
     if (is_wall_group(h)) {  // SetBoundaryDivPositive: this sweep's p of the inner cell
@@ -301,7 +307,8 @@ GRID_KERNEL void ProjectStep2(const __global float4* prev_in, __global float4* p
 }
 
 // 5. Projection step 3: subtract the gradient of p (central differences, in cells scaled by the grid size).
-GRID_KERNEL void ProjectStep3(__global float2* velocity, const __global float4* prev, int w, int h) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, 1)))
+void ProjectStep3(__global float2* velocity, const __global float4* prev, int w, int h) {
     CELL_OR_RETURN(w, h)
     float2 v = velocity[i];
     v.x -= 0.5f * (ld4(prev, x + 1, y, w, h, false).x - ld4(prev, x - 1, y, w, h, false).x) * (float)w;
@@ -331,7 +338,8 @@ __kernel void SetBoundaryVelocity(__global float2* velocity, int w, int h) {
 }
 
 // 6. prev.xy = velocity: the field AdvectVelocity carries along (the book's "swap" is this copy).
-GRID_KERNEL void SwapVelocity(const __global float2* velocity, __global float4* prev, int w, int h) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, 1)))
+void SwapVelocity(const __global float2* velocity, __global float4* prev, int w, int h) {
     CELL_OR_RETURN(w, h)
     prev[i] = (float4)(velocity[i], prev[i].zw);
 }
@@ -341,7 +349,8 @@ INLINE float2 advect_velocity_at(const __global float4* prev, int x, int y, int 
     return bilinear_xy(prev, back_trace(x, y, prev[y * w + x].xy, dfdt, w, h), w, h);
 }
 
-GRID_KERNEL void AdvectVelocity(const __global float4* prev, __global float2* velocity, int w, int h, float dfdt) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, 1)))
+void AdvectVelocity(const __global float4* prev, __global float2* velocity, int w, int h, float dfdt) {
     int x = get_global_id(0), y = get_global_id(1);
     if (is_wall_group(h)) {  // SetBoundaryVelocity from the advected values of the cells the rule reads
         if (!wall_item(w, h, &x, &y)) return;
@@ -362,8 +371,9 @@ GRID_KERNEL void AdvectVelocity(const __global float4* prev, __global float2* ve
 // {{{ density step
 
 // 8. Source term S of the density: density += source.z*densityCoef*dt; prev.z remembers that amount.
-GRID_KERNEL void AddSourceDensity(__global float* density, __global float4* prev, const __global float4* source, int w,
-                                  int h, float density_coef, float dt) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, 1)))
+void AddSourceDensity(__global float* density, __global float4* prev, const __global float4* source, int w,
+                      int h, float density_coef, float dt) {
     CELL_OR_RETURN(w, h)
     const float s = source[i].z * density_coef * dt;
     density[i] += s;
@@ -379,8 +389,9 @@ INLINE float diffuse_density_at(const __global float* density_in, const __global
     return (prev[i].z + a * sum) / (1.0f + 4.0f * a);
 }
 
-GRID_KERNEL void DiffuseDensity(const __global float* density_in, __global float* density_out,
-                                const __global float4* prev, int w, int h, float a) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, 1)))
+void DiffuseDensity(const __global float* density_in, __global float* density_out,
+                    const __global float4* prev, int w, int h, float a) {
     int x = get_global_id(0), y = get_global_id(1);
     float d;
     if (is_wall_group(h)) {  // SetBoundaryDensity: this sweep's value of the inner cell
@@ -395,7 +406,8 @@ GRID_KERNEL void DiffuseDensity(const __global float* density_in, __global float
 }
 
 // 10. prev.z = density: the field AdvectDensity carries along.
-GRID_KERNEL void SwapDensity(const __global float* density, __global float4* prev, int w, int h) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, 1)))
+void SwapDensity(const __global float* density, __global float4* prev, int w, int h) {
     CELL_OR_RETURN(w, h)
     prev[i].z = density[i];
 }
@@ -417,22 +429,24 @@ INLINE void advect_density(const __global float2* carrier, int stride, const __g
     density[y * w + x] = bilinear_z(prev, back_trace(x, y, carrier[(y * w + x) * stride], dfdt, w, h), w, h);
 }
 
-GRID_KERNEL void AdvectDensity(const __global float2* velocity, const __global float4* prev, __global float* density,
-                               int w, int h, float dfdt) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, 1)))
+void AdvectDensity(const __global float2* velocity, const __global float4* prev, __global float* density,
+                   int w, int h, float dfdt) {
     advect_density(velocity, 1, prev, density, w, h, dfdt);
 }
 
 // 11'. density_only (book: isDensityOnly): advect by the brush's velocity instead of a simulated one.
-GRID_KERNEL void AdvectDensityFromExt(const __global float4* source, const __global float4* prev,
-                                      __global float* density, int w, int h, float dfdt) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, 1)))
+void AdvectDensityFromExt(const __global float4* source, const __global float4* prev,
+                          __global float* density, int w, int h, float dfdt) {
     advect_density((const __global float2*)source, 2, prev, density, w, h, dfdt);
 }
 
 // }}}
 
 // 12. Output for the renderer (the original writes the RenderTexture the ink post effect samples).
-GRID_KERNEL void Draw(const __global float2* velocity, const __global float* density, __global float4* solver, int w,
-                      int h) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, 1)))
+void Draw(const __global float2* velocity, const __global float* density, __global float4* solver, int w, int h) {
     CELL_OR_RETURN(w, h)
     solver[i] = (float4)(velocity[i], density[i], 1.0f);
 }

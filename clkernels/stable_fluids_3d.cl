@@ -34,10 +34,12 @@
 //   DiffuseDensity       density_in, prev.w -> density_out: one Jacobi sweep (gs_iterations times) +B(Density)
 //   SwapDensity          prev.w = density
 //   AdvectDensity        velocity, prev.w -> density: back-trace by the current velocity +B(Density)
-//   AdvectDensityFromExt source.xyz, prev.w -> density: back-trace by the source (density_only) +B(Density)
+//   AdvectDensityFromExt  source.xyz, prev.w -> density: back-trace by the source (density_only) +B(Density)
 //   Draw                 velocity, density -> solver = (u, v, w, density)
-//   SetBoundaryDensity, SetBoundaryDiv (prev.y), SetBoundaryP (prev.x): the rules on their own
-//                        (Simulation.set_boundary_*; step() applies them inside the kernels above)
+//   the rules on their own (Simulation.set_boundary_*; step() applies them inside the kernels above):
+//   SetBoundaryDensity   density
+//   SetBoundaryDiv       prev.y (the divergence)
+//   SetBoundaryP         prev.x (p)
 //   The SetBoundary* kernels are one launch of one work-item per wall cell (see boundary_cell): every cell reads
 //   interior cells, and SetBoundaryVelocity's face cells write only their normal component while its edges and
 //   corners read only the face cells' other components (float pointers, so no byte is read while another work-item
@@ -69,7 +71,6 @@
 // Helpers are always inlined: PoCL keeps a large helper that is called more than once as a call per work-item.
 #define INLINE inline __attribute__((always_inline))
 
-#define GRID_KERNEL __kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
 // One work-item per cell; padding items of the rounded-up global size leave at once (no kernel has a barrier).
 #define CELL_OR_RETURN(w, h, d)                                                                    \
     const int x = get_global_id(0), y = get_global_id(1), z = get_global_id(2);                    \
@@ -258,8 +259,8 @@ INLINE void set_boundary_copy(__global float* f, int stride, int offset, int4 n)
 
 // The original's 3D source texture has no producer (docs/chapters/04-stable-fluids-3d.md): a spherical emitter at c
 // (uvw units) of radius r blowing along dir.
-GRID_KERNEL void AddSourceBrush3D(__global float4* source, int w, int h, int d, float4 center, float4 direction,
-                                  float radius) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+void AddSourceBrush3D(__global float4* source, int w, int h, int d, float4 center, float4 direction, float radius) {
     CELL_OR_RETURN(w, h, d)
     const float3 uvw = ((float3)(x, y, z) + 0.5f) / convert_float3(n.xyz);
     const float3 q = (uvw - center.xyz) / radius;
@@ -267,8 +268,9 @@ GRID_KERNEL void AddSourceBrush3D(__global float4* source, int w, int h, int d, 
     source[id] = (float4)(direction.xyz * f, f);
 }
 
-GRID_KERNEL void AddSourceVelocity(__global float4* velocity, __global float4* prev, const __global float4* source,
-                                   int w, int h, int d, float velocity_coef, float dt) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+void AddSourceVelocity(__global float4* velocity, __global float4* prev, const __global float4* source,
+                       int w, int h, int d, float velocity_coef, float dt) {
     CELL_OR_RETURN(w, h, d)
     const float3 s = source[id].xyz * velocity_coef * dt;
     velocity[id] = (float4)(velocity[id].xyz + s, 0.0f);
@@ -289,8 +291,9 @@ INLINE float4 diffuse_velocity_at(const __global float4* velocity_in, const __gl
     return (float4)((prev[cell(x, y, z, n)].xyz + a * sum.xyz) / (1.0f + 6.0f * a), 0.0f);
 }
 
-GRID_KERNEL void DiffuseVelocity(const __global float4* velocity_in, const __global float4* prev,
-                                 __global float4* velocity_out, int w, int h, int d, float dt, float visc) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+void DiffuseVelocity(const __global float4* velocity_in, const __global float4* prev,
+                     __global float4* velocity_out, int w, int h, int d, float dt, float visc) {
     const int4 n = (int4)(w, h, d, 0);
     const float a = dt * visc * (float)w * (float)h * (float)d;
     int c[3] = {get_global_id(0), get_global_id(1), get_global_id(2)};
@@ -327,7 +330,8 @@ INLINE float divergence_at(const __global float4* velocity, int x, int y, int z,
 #endif
 }
 
-GRID_KERNEL void ProjectStep1(const __global float4* velocity, __global float4* prev, int w, int h, int d) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+void ProjectStep1(const __global float4* velocity, __global float4* prev, int w, int h, int d) {
     const int4 n = (int4)(w, h, d, 0);
     int c[3] = {get_global_id(0), get_global_id(1), get_global_id(2)};
     float div;
@@ -351,7 +355,8 @@ INLINE float pressure_at(const __global float4* prev_in, int x, int y, int z, in
     return (prev_in[cell(x, y, z, n)].y + neighbours4(prev_in, x, y, z, n, true).x) / 6.0f;  // an interior cell
 }
 
-GRID_KERNEL void ProjectStep2(const __global float4* prev_in, __global float4* prev_out, int w, int h, int d) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+void ProjectStep2(const __global float4* prev_in, __global float4* prev_out, int w, int h, int d) {
     const int4 n = (int4)(w, h, d, 0);
     int c[3] = {get_global_id(0), get_global_id(1), get_global_id(2)};
     float p;
@@ -369,7 +374,8 @@ GRID_KERNEL void ProjectStep2(const __global float4* prev_in, __global float4* p
 }
 
 // Subtract the gradient of p (central differences, scaled back from uv units: book's / uvd).
-GRID_KERNEL void ProjectStep3(__global float4* velocity, const __global float4* prev, int w, int h, int d) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+void ProjectStep3(__global float4* velocity, const __global float4* prev, int w, int h, int d) {
     CELL_OR_RETURN(w, h, d)
     float4 v = velocity[id];
     v.x -= 0.5f * (ld4(prev, x + 1, y, z, n, false).x - ld4(prev, x - 1, y, z, n, false).x) * (float)w;
@@ -409,7 +415,8 @@ __kernel void SetBoundaryVelocity(__global float4* velocity, int w, int h, int d
     velocity[cell_of(c, n)] = wall_velocity(c, in, walls, face);
 }
 
-GRID_KERNEL void SwapVelocity(const __global float4* velocity, __global float4* prev, int w, int h, int d) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+void SwapVelocity(const __global float4* velocity, __global float4* prev, int w, int h, int d) {
     CELL_OR_RETURN(w, h, d)
     prev[id] = (float4)(velocity[id].xyz, prev[id].w);
 }
@@ -420,7 +427,8 @@ INLINE float4 advect_velocity_at(const __global float4* prev, int x, int y, int 
     return (float4)(trilinear(prev, b, n).xyz, 0.0f);
 }
 
-GRID_KERNEL void AdvectVelocity(const __global float4* prev, __global float4* velocity, int w, int h, int d, float dt) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+void AdvectVelocity(const __global float4* prev, __global float4* velocity, int w, int h, int d, float dt) {
     const int4 n = (int4)(w, h, d, 0);
     const float dfdt = dt * (float)(w + h + d) / 3.0f;
     int c[3] = {get_global_id(0), get_global_id(1), get_global_id(2)};
@@ -446,8 +454,9 @@ GRID_KERNEL void AdvectVelocity(const __global float4* prev, __global float4* ve
 
 // {{{ density step
 
-GRID_KERNEL void AddSourceDensity(__global float* density, __global float4* prev, const __global float4* source,
-                                  int w, int h, int d, float density_coef, float dt) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+void AddSourceDensity(__global float* density, __global float4* prev, const __global float4* source,
+                      int w, int h, int d, float density_coef, float dt) {
     CELL_OR_RETURN(w, h, d)
     const float s = source[id].w * density_coef * dt;
     density[id] += s;
@@ -460,8 +469,9 @@ INLINE float diffuse_density_at(const __global float* density_in, const __global
     return (prev[cell(x, y, z, n)].w + a * neighbours(density_in, x, y, z, n, true)) / (1.0f + 6.0f * a);  // interior
 }
 
-GRID_KERNEL void DiffuseDensity(const __global float* density_in, const __global float4* prev,
-                                __global float* density_out, int w, int h, int d, float dt, float diff) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+void DiffuseDensity(const __global float* density_in, const __global float4* prev,
+                    __global float* density_out, int w, int h, int d, float dt, float diff) {
     const int4 n = (int4)(w, h, d, 0);
     const float a = dt * diff * (float)w * (float)h * (float)d;
     int c[3] = {get_global_id(0), get_global_id(1), get_global_id(2)};
@@ -478,7 +488,8 @@ GRID_KERNEL void DiffuseDensity(const __global float* density_in, const __global
     density_out[cell_of(c, n)] = value;
 }
 
-GRID_KERNEL void SwapDensity(const __global float* density, __global float4* prev, int w, int h, int d) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+void SwapDensity(const __global float* density, __global float4* prev, int w, int h, int d) {
     CELL_OR_RETURN(w, h, d)
     prev[id].w = density[id];
 }
@@ -509,21 +520,24 @@ INLINE void advect_density(const __global float4* carrier, const __global float4
     density[cell_of(c, n)] = value;
 }
 
-GRID_KERNEL void AdvectDensity(const __global float4* velocity, const __global float4* prev, __global float* density,
-                               int w, int h, int d, float dt) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+void AdvectDensity(const __global float4* velocity, const __global float4* prev, __global float* density,
+                   int w, int h, int d, float dt) {
     advect_density(velocity, prev, density, (int4)(w, h, d, 0), dt);
 }
 
 // density_only: the source's velocity replaces the solved one (the original samples the source at uvw = 0).
-GRID_KERNEL void AdvectDensityFromExt(const __global float4* source, const __global float4* prev,
-                                      __global float* density, int w, int h, int d, float dt) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+void AdvectDensityFromExt(const __global float4* source, const __global float4* prev,
+                          __global float* density, int w, int h, int d, float dt) {
     advect_density(source, prev, density, (int4)(w, h, d, 0), dt);
 }
 
 // }}}
 
-GRID_KERNEL void Draw(const __global float4* velocity, const __global float* density, __global float4* solver, int w,
-                      int h, int d) {
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+void Draw(const __global float4* velocity, const __global float* density, __global float4* solver, int w,
+          int h, int d) {
     CELL_OR_RETURN(w, h, d)
     solver[id] = (float4)(velocity[id].xyz, density[id]);
 }

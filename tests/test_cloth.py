@@ -1,4 +1,4 @@
-"""GPU cloth (vol.4 ch.3, spec 14 section 8): CSInit/CSSimulation against numpy, the golden hanging run,
+"""GPU cloth (vol.4 ch.3; docs/chapters/14-cloth.md): CSInit/CSSimulation against numpy, the golden hanging run,
 collision and stability invariants, ping-pong bookkeeping, the headless CLI, both views, Oclgrind."""
 
 from __future__ import annotations
@@ -214,7 +214,7 @@ def test_rest_state_stays_at_rest(runtime):
     for _ in range(100):  # 100 frames x 4 substeps = 400 substeps
         sim.step()
     drift = np.abs(sim.state()["pos"] - init).max()
-    assert drift <= 1e-5, f"max |pos - init| = {drift:.3g} (spec: measured 1.2e-7)"
+    assert drift <= 1e-5, f"max |pos - init| = {drift:.3g} (measured: 1.2e-7)"
 
 
 @pytest.fixture(scope="module")
@@ -253,7 +253,7 @@ def test_golden_hanging_cloth_after_300_frames(golden_run):
     pos, max_step = golden_run["at_300"]
     bottom = pos[0]
     rest = MAIN_SCENE["rest_length"]
-    # spec section 8.5, measured with a float32 numpy port
+    # golden values measured with a float32 numpy port of the kernels
     assert bottom[:, 1].mean() == pytest.approx(-2.194, abs=0.005)
     assert bottom[31:33, 1].mean() == pytest.approx(-2.237, abs=0.005)
     assert bottom[-1, 0] - bottom[0, 0] == pytest.approx(2.910, abs=0.005)
@@ -263,7 +263,7 @@ def test_golden_hanging_cloth_after_300_frames(golden_run):
     np.testing.assert_array_equal(pos[..., 2], 0.0)
     # structural springs of the hanging cloth, from cloth_step_reference (float64, 1200 substeps, same bottom-row
     # numbers as above): longest 0.10309 (the two vertical springs below the pinned corners), shortest 0.02745
-    # (rows squeezed sideways near the bottom). The spec's "0.027-0.060" cannot hold with its own golden numbers:
+    # (rows squeezed sideways near the bottom). A bound of 0.027-0.060 (1.2 x rest) cannot hold with these numbers:
     # the mean vertical spring is already (1.55 + 2.194) / 63 = 0.0594
     vertical = np.linalg.norm(np.diff(pos, axis=0), axis=-1)
     horizontal = np.linalg.norm(np.diff(pos, axis=1), axis=-1)
@@ -291,8 +291,8 @@ def test_stable_through_the_sphere_sweep(golden_run):
     lo, hi = golden_run["length_range"]
     rest = MAIN_SCENE["rest_length"]
     # measured here 0.0267 - 0.112: the top corners carry an edge column's weight on two springs (0.103 already
-    # while hanging still, as the numpy reference: test_golden_hanging_cloth_after_300_frames). The spec's
-    # [0.5, 1.5] * rest ("0.027-0.060") does not hold for the book's cloth.
+    # while hanging still, as the numpy reference: test_golden_hanging_cloth_after_300_frames). [0.5, 1.5] * rest
+    # does not hold for the book's cloth (docs/chapters/14-cloth.md, "Known limits").
     assert 0.5 * rest <= lo and hi <= 2.5 * rest, (lo, hi)
     assert np.abs(golden_run["sim"].state()["pos"][..., 2]).max() > 0.1, "the sphere reached the cloth"
 
@@ -442,7 +442,7 @@ def test_collider_follows_the_book(runtime):
 # {{{ headless CLI
 
 
-def test_cli_run_writes_the_spec_arrays(capsys, tmp_path):
+def test_cli_run_writes_the_chapter_page_arrays(capsys, tmp_path):
     out, png, mesh = tmp_path / "c.npz", tmp_path / "c.png", tmp_path / "c.obj"
     argv = ["run", "cloth", "--steps", "6", "--every", "3", "--set", "res=12,10", "--set", "substeps=2"]
     code = main([*argv, "--out", str(out), "--png", str(png), "--png-size", "64x48", "--mesh", str(mesh)])

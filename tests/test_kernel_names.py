@@ -10,16 +10,7 @@ import pytest
 
 from ugpcl.runtime import KERNEL_DIR
 
-# Files being reworked elsewhere that do not follow the rules yet: a GRID_KERNEL macro hides __kernel, and the kernel
-# list does not name SetBoundaryDensity & co. one per entry. strict: once they do, the XPASS fails; drop them here.
-PENDING = {"stable_fluids_2d.cl", "stable_fluids_3d.cl"}
 KERNEL_FILES = sorted(KERNEL_DIR.glob("*.cl"))
-CHECKED_FILES = [
-    pytest.param(path, id=path.name, marks=pytest.mark.xfail(strict=True, reason="not converted yet"))
-    if path.name in PENDING
-    else pytest.param(path, id=path.name)
-    for path in KERNEL_FILES
-]
 
 NAME = r"[A-Za-z_]\w*"
 # A kernel entry of the header's list: indentation, an optional step number ("1.", "2b."), one or more names joined
@@ -56,7 +47,7 @@ def defined_kernels(source: str) -> list[str]:
     return [m["name"] for m in DEFINITION.finditer(strip_comments(source))]
 
 
-@pytest.mark.parametrize("path", CHECKED_FILES)
+@pytest.mark.parametrize("path", KERNEL_FILES, ids=lambda p: p.name)
 def test_header_lists_the_kernels_in_file_order(path: Path):
     source = path.read_text()
     listed, defined = listed_kernels(source), defined_kernels(source)
@@ -69,7 +60,7 @@ def test_header_lists_the_kernels_in_file_order(path: Path):
     )
 
 
-@pytest.mark.parametrize("path", CHECKED_FILES)
+@pytest.mark.parametrize("path", KERNEL_FILES, ids=lambda p: p.name)
 def test_no_macro_hides_kernel(path: Path):
     code = strip_comments(path.read_text())
     hidden = [line.strip() for line in code.splitlines() if line.lstrip().startswith("#") and "__kernel" in line]

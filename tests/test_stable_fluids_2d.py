@@ -1,5 +1,6 @@
-"""Stable fluids 2D (vol.1 ch.4, spec 04 sections 4 and 8): every kernel against numpy, a whole step against the
-book's order, invariants (zero state, max principle, symmetry, projection, long runs), CLI, view, Oclgrind.
+"""Stable fluids 2D (vol.1 ch.4 §4.6-4.8; docs/chapters/04-stable-fluids-2d.md): every kernel against numpy, a whole
+step against the book's order, invariants (zero state, max principle, symmetry, projection, long runs), CLI, view,
+Oclgrind.
 
 Grids are deliberately non-square and not multiples of the work-group shape (37 x 23 with 32 x 32 groups)."""
 
@@ -18,10 +19,11 @@ from ugpcl.scenes import get
 from ugpcl.scenes.stable_fluids_2d import KERNELS, Params, Simulation
 
 W, H = 37, 23
-RADIUS = 0.08  # spec 04 section 8: 0.022 covers only a few cells below 128^2
+RADIUS = 0.08  # the scene's 0.022 covers only a few cells below 128^2
 DT = 1.0 / 60.0
 
-# {{{ numpy float64 reference, written from the book's Solver2D.compute as spec 04 section 4 restates it
+# {{{ numpy float64 reference, written from the book's Solver2D.compute (vol.1 §4.6-4.7) as the "Kernels" section of
+# docs/chapters/04-stable-fluids-2d.md restates it
 # Fields are indexed [y, x]; every neighbour read is zero outside the grid (D3D's out-of-range texture read).
 
 
@@ -152,7 +154,7 @@ def project_ref(vel, prev, book, sweeps):
 
 
 def step_ref(s, p: Params, brush, dt=DT):
-    """One Update() in the book's order (spec 04 section 4, "Host per frame")."""
+    """One Update() in the book's order (vol.1 §4.8 "Each item step of the simulation")."""
     vel, dens, prev, source = (s[k].astype(np.float64) for k in ("velocity", "density", "prev", "source"))
     h, w = dens.shape
     book = p.variant == "book"
@@ -228,7 +230,7 @@ def test_add_source_brush_matches_reference(runtime, center, move):
     sim = make(runtime)
     sim.add_source_brush(*center, *move)
     expected = brush_ref(W, H, center, move, RADIUS)
-    close(sim.state()["source"], expected, 0, 1e-6)  # spec: 1e-6
+    close(sim.state()["source"], expected, 0, 1e-6)  # float32 rounding of the brush formula
     assert expected[..., 2].max() > 0.5 and (expected[..., 2] == 0).mean() > 0.5  # a real, bounded brush
 
 
@@ -260,7 +262,7 @@ def test_diffuse_sweeps_match_reference(runtime, seed, visc, sweeps):
         vel = boundary_velocity(diffuse_ref(vel, f["prev"][..., :2], DT * visc * W * H))
         dens = boundary_copy(diffuse_ref(dens, f["prev"][..., 2], DT * visc / 2 * W * H))
     s = read(sim)
-    close(s["velocity"], vel, 0, 1e-6)  # spec: sweeps 1e-6 abs
+    close(s["velocity"], vel, 0, 1e-6)  # a sweep: 1e-6 abs
     close(s["density"], dens, 0, 1e-6)
 
 
@@ -355,7 +357,7 @@ def test_advection_matches_reference(runtime, seed, variant):
     dfdt = DT * (W + H) * 0.5
     sim.advect_density(DT)
     expected = boundary_copy(advect_density_ref(f["velocity"], f["prev"], dfdt, book))
-    close(read(sim)["density"], expected, 0, 1e-5)  # spec: advect 1e-5
+    close(read(sim)["density"], expected, 0, 1e-5)  # advection: 1e-5 (bilinear weights in float32)
     sim.advect_density_from_ext(DT)
     expected = boundary_copy(advect_density_ref(f["source"][..., :2], f["prev"], dfdt, book))
     close(read(sim)["density"], expected, 0, 1e-5)
@@ -410,7 +412,7 @@ def test_a_step_is_22_launches_and_the_kernel_file_lists_them_in_order(runtime, 
     """The host calls the kernels in the order the .cl header lists them (and the file defines them); a default step
     with the brush held is 22 launches (each boundary rule inside its kernel but after ProjectStep3)."""
     source = (KERNEL_DIR / "stable_fluids_2d.cl").read_text()
-    assert tuple(re.findall(r"^(?:GRID_KERNEL|__kernel)\s+void\s+(\w+)", source, re.M)) == KERNELS
+    assert tuple(re.findall(r"^__kernel\b[^;{]*?\bvoid\s+(\w+)", source, re.M)) == KERNELS
     header = source[source.index("Kernels, in host call order") : source.index("#ifndef THREAD_X")]
     first = [re.search(rf"\b{name}\b", header).start() for name in KERNELS]
     assert first == sorted(first), "the header lists the kernels out of order"
@@ -535,7 +537,7 @@ def test_reruns_are_bitwise_identical(runtime, variant):
 # {{{ brush, strokes, parameters
 
 
-def test_brush_move_is_clamped_and_scripted_strokes_follow_the_spec(runtime):
+def test_brush_move_is_clamped_and_scripted_strokes_follow_their_paths(runtime):
     sim = make(runtime)
     sim.brush(0.5, 0.5, 10.0 / W, 0.0)  # a 10-cell mouse move
     assert sim.pending_brush == pytest.approx((0.5, 0.5, 1.0, 0.0))
@@ -587,7 +589,7 @@ def test_variant_switch_keeps_the_fluid(runtime):
 # {{{ headless CLI
 
 
-def test_cli_run_writes_the_spec_arrays(tmp_path):
+def test_cli_run_writes_the_chapter_page_arrays(tmp_path):
     out = tmp_path / "sf.npz"
     cmd = [sys.executable, "-m", "ugpcl", "run", "stable_fluids_2d", "--steps", "12", "--every", "4", "--out", str(out)]
     cmd += ["--set", "width=48", "--set", "height=27", "--set", "stroke=line", "--set", "source_radius=0.08"]

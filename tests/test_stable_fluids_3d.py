@@ -1,5 +1,5 @@
-"""Stable fluids 3D (vol.1 ch.4, spec 04 sections 4 and 8, 3D parts): every kernel against a numpy float64 reference,
-the solver's invariants, the headless CLI, the ray-marched view, Oclgrind."""
+"""Stable fluids 3D (vol.1 ch.4, Solver3D.compute; docs/chapters/04-stable-fluids-3d.md): every kernel against a numpy
+float64 reference, the solver's invariants, the headless CLI, the ray-marched view, Oclgrind."""
 
 from __future__ import annotations
 
@@ -14,12 +14,13 @@ from ugpcl.scenes import get
 from ugpcl.scenes.stable_fluids_3d import KERNELS, Params, Simulation
 
 SIZES = [(19, 17, 13), (16, 16, 16), (3, 4, 5)]
-"""(w, h, d): non-cubic and no multiple of the (8, 8, 4) work-group (spec 04 section 8), cubic, the smallest grid."""
+"""(w, h, d): non-cubic and no multiple of the (8, 8, 4) work-group, cubic, the smallest grid."""
 DT = 1.0 / 60.0
 PUFF_FRAMES = 120
 """emitter_frames of the tests' puff (the 2D scene's scripted stroke holds the brush as long)."""
 
-# {{{ numpy reference, float64, written from Solver3D.compute and spec 04 section 4 (arrays are (d, h, w[, 4]))
+# {{{ numpy reference, float64, written from Solver3D.compute and the chapter page's kernel list
+# (arrays are (d, h, w[, 4]))
 
 
 def pad(f: np.ndarray) -> np.ndarray:
@@ -208,8 +209,9 @@ def random_fields(rng, shape, speed=1.0):
 
 def smooth_field(rng, shape, channels: int, amplitude: float) -> np.ndarray:
     """(d, h, w, channels) float32: a few random sine modes with wavelengths of 4+ cells. Back-traces land between
-    cells, so float32 rounding of the traced point (~1e-6 cells) moves a sample by ~1e-6 x the field's change per
-    cell: smooth fields keep that inside the spec's 1e-5, white noise (a change of ~amplitude per cell) would not."""
+    cells, so float32 rounding of the traced point (~1e-6 cells) moves a sample by ~1e-6 x the field's change per cell:
+    smooth fields keep that inside the advection tolerance 1e-5, white noise (a change of ~amplitude per cell) would
+    not."""
     w, h, d = shape
     z, y, x = np.meshgrid(np.arange(d), np.arange(h), np.arange(w), indexing="ij")
     out = np.zeros((d, h, w, channels))
@@ -289,7 +291,7 @@ def test_kernels_leave_walls_their_boundary_kernel_would_not_change(runtime, see
 
 def test_the_kernel_file_lists_the_kernels_in_host_call_order():
     source = (KERNEL_DIR / "stable_fluids_3d.cl").read_text()
-    assert tuple(re.findall(r"^(?:GRID_KERNEL|__kernel)\s+void\s+(\w+)", source, re.M)) == KERNELS
+    assert tuple(re.findall(r"^__kernel\b[^;{]*?\bvoid\s+(\w+)", source, re.M)) == KERNELS
     header = source[source.index("Kernels, in host call order") : source.index("#ifndef THREAD_X")]
     first = [re.search(rf"\b{name}\b", header).start() for name in KERNELS]
     assert first == sorted(first), "the header lists the kernels out of order"
@@ -460,7 +462,7 @@ def project_reference(velocity, prev, variant: str, sweeps: int):
 
 
 def step_reference(state, sim: Simulation, source_on: bool, dt=DT):
-    """One Update() in the book's order (spec 04 section 4, "Host per frame", 3D): numpy float64."""
+    """One Update() in the book's order (vol.1 §4.8 "Each item step of the simulation", in 3D): numpy float64."""
     p = sim.params
     velocity, density, prev, source = (state[k].astype(np.float64) for k in ("velocity", "density", "prev", "source"))
     if source_on and not sim.external_source:
@@ -548,7 +550,7 @@ def test_zero_state_stays_exactly_zero(runtime, variant):
 @pytest.mark.parametrize("variant", ["fixed", "book"])
 def test_max_principle_after_the_puff(runtime, variant):
     """Once the source stops, every kernel mixes existing values with non-negative weights summing to <= 1, so
-    M = max(max density, max prev.w) never grows (spec 04 section 8)."""
+    M = max(max density, max prev.w) never grows."""
     sim = make(runtime, emitter_frames=PUFF_FRAMES, variant=variant, velocity_coef=10.0)
     for _ in range(PUFF_FRAMES):
         sim.step()
@@ -589,9 +591,10 @@ def test_emitter_in_the_middle_keeps_the_mirror_symmetries(runtime, variant):
 
 @pytest.mark.parametrize("variant", ["fixed", "book"])
 def test_z_independent_source_keeps_density_only_state_z_independent(runtime, variant, seed):
-    """Spec 04 section 8: a z-independent source gives a z-independent state. It holds in density_only mode; with the
-    velocity step, the book's walls keep each face cell's own tangential velocity (computed from zero reads beyond
-    the face), which differs from the layer inside, so the z faces seed a z-dependence there (see the doc page)."""
+    """A z-independent source should give a z-independent state. It holds in density_only mode; with the velocity step,
+    the book's walls keep each face cell's own tangential velocity (computed from zero reads beyond the face), which
+    differs from the layer inside, so the z faces seed a z-dependence there (docs/chapters/04-stable-fluids-3d.md,
+    "Known limits")."""
     rng = np.random.default_rng(seed)
     sim = make(runtime, variant=variant, density_only=True)
     layer = np.zeros((sim.shape[1], sim.shape[2], 4), np.float32)
@@ -625,7 +628,7 @@ def test_reruns_are_bitwise_identical(runtime):
 
 
 def divergent_field(n: int) -> np.ndarray:
-    """Gradient of a Gaussian bump (sigma^2 = 0.01 in uvw units) plus a vortex about the z axis (spec 04 section 8)."""
+    """Gradient of a Gaussian bump (sigma^2 = 0.01 in uvw units) plus a vortex about the z axis."""
     z, y, x = np.meshgrid(*(((np.arange(n) + 0.5) / n - 0.5),) * 3, indexing="ij")
     bump = np.exp(-(x * x + y * y + z * z) / (2 * 0.01))
     swirl = np.exp(-(x * x + y * y + z * z) / (2 * 0.02))
@@ -710,7 +713,7 @@ def test_bad_source_and_dt_are_refused(runtime):
 # {{{ headless CLI
 
 
-def test_cli_writes_the_spec_arrays(capsys, tmp_path):
+def test_cli_writes_the_chapter_page_arrays(capsys, tmp_path):
     from ugpcl.cli import main
 
     out = tmp_path / "sf3.npz"

@@ -1,6 +1,6 @@
-"""Tessellation + displacement (vol.4 ch.6, spec 17 section 8): the plane and camera, the fluid the scene drives
-(vol.4's stripped solver in variant=book), the TCS factors and TES displacement captured from the GPU against
-numpy, primitive counts, culling, the rendered image, CLI, view, Oclgrind."""
+"""Tessellation + displacement (vol.4 ch.6; docs/chapters/17-tessellation.md, "Checks"): the plane and camera, the fluid
+the scene drives (vol.4's stripped solver in variant=book), the TCS factors and TES displacement captured from the GPU
+against numpy, primitive counts, culling, the rendered image, CLI, view, Oclgrind."""
 
 from __future__ import annotations
 
@@ -110,7 +110,7 @@ def test_plane_is_unitys_and_faces_the_camera():
     assert vertices[:, 10:].min() == 0 and vertices[:, 10:].max() == 1
     assert np.unique(np.sort(triangles, axis=1), axis=0).shape[0] == 200  # no triangle twice
     normal = plane_model()[:3, :3] @ [0, 1, 0]
-    np.testing.assert_allclose(normal, [0, 0.669, -0.743], atol=1e-3)  # spec 17: world normal of Euler (48, 180, 0)
+    np.testing.assert_allclose(normal, [0, 0.669, -0.743], atol=1e-3)  # the sample scene's Plane, Euler (48, 180, 0)
     # uv (0, 0) lands bottom-left on screen and (1, 1) top-right: the painting reads upright
     view, proj, _ = scene_camera(16 / 9)
     corner = {tuple(v[10:]): v[:3] for v in vertices if tuple(v[10:]) in {(0.0, 0.0), (1.0, 1.0)}}
@@ -185,9 +185,9 @@ def test_advection_without_velocity_returns_prev_z(runtime, seed, variant):
 
 @pytest.mark.parametrize("n", [32, 128])
 def test_boundaries_copy_the_inward_neighbour_and_negate_the_normal_velocity(runtime, seed, n):
-    """Spec 17 section 8.6: after boundary_density every edge cell equals its inward neighbour exactly; after
-    boundary_velocity the normal component is the negated neighbour's, the tangential one the cell's own (the book's
-    rule); corners average their two edge neighbours."""
+    """After boundary_density every edge cell equals its inward neighbour exactly; after boundary_velocity the normal
+    component is the negated neighbour's, the tangential one the cell's own (the book's rule); corners average their two
+    edge neighbours."""
     rng = np.random.default_rng(seed)
     fluid = make(runtime, grid=n, variant="book").fluid
     velocity = rng.uniform(-1, 1, (n, n, 2)).astype(np.float32)
@@ -257,7 +257,7 @@ def test_book_projection_only_touches_the_walls_and_fixed_sweeps_converge(runtim
 
 
 # }}}
-# {{{ the fluid's kernels one by one (spec 17 section 8.1: random inputs, 32 x 32 and 128 x 128, the scene's values)
+# {{{ the fluid's kernels one by one (random inputs, 32 x 32 and 128 x 128, the scene's values)
 
 
 def smooth_field(rng, n: int, channels: int, amplitude: float, k_max: float) -> np.ndarray:
@@ -275,8 +275,8 @@ def smooth_field(rng, n: int, channels: int, amplitude: float, k_max: float) -> 
 @pytest.mark.parametrize("variant", ["book", "fixed"])
 def test_every_fluid_kernel_matches_numpy_on_random_inputs(runtime, seed, n, variant):
     """Each kernel of the scene's fluid (the 2D chapter's, with this scene's coefficients) against the 2D chapter's
-    float64 reference, rtol 1e-5, atol 1e-6 (spec 17 section 8.1)."""
-    import test_stable_fluids_2d as ref  # the same kernels: its numpy reference of spec 04 section 4
+    float64 reference, rtol 1e-5, atol 1e-6."""
+    import test_stable_fluids_2d as ref  # the same kernels: its numpy reference of vol.1 ch.4's Solver2D
 
     rng = np.random.default_rng(seed + n)
     sim = make(runtime, grid=n, variant=variant)
@@ -368,7 +368,7 @@ def test_whole_fluid_steps_match_numpy_with_the_scenes_values(runtime, variant):
 # {{{ the tessellation formulas in numpy
 
 
-def test_tess_factors_match_the_per_patch_reference_and_the_spec_ranges():
+def test_tess_factors_match_the_per_patch_reference_and_the_chapter_page_ranges():
     view, proj, eye = scene_camera(16 / 9)
     corners = plane_corners()
     for edge_length in (2.0, 15.0):
@@ -385,14 +385,15 @@ def test_tess_factors_match_the_per_patch_reference_and_the_spec_ranges():
             if (ij[a] == ij[b]).any():
                 quad_edges.append((factors2[t, k], factors15[t, k]))
     q = np.array(quad_edges)
-    # spec 17 section 8.9: EdgeLength 2 -> 41.5..105 (about half clamp to 64); EdgeLength 15 -> 5.5..14.0
+    # docs/chapters/17-tessellation.md, the paragraph on tess_factors:
+    # EdgeLength 2 -> 41.5..105 (about half clamp to 64); EdgeLength 15 -> 5.5..14.0
     assert q[:, 0].min() == pytest.approx(41.5, abs=0.05) and q[:, 0].max() == pytest.approx(105.0, abs=0.05)
     assert 0.4 < (q[:, 0] >= 64).mean() < 0.6
     assert q[:, 1].min() == pytest.approx(5.5, abs=0.05) and q[:, 1].max() == pytest.approx(14.0, abs=0.05)
 
 
 def test_fractional_odd_triangle_counts():
-    counts = {1: 1, 2: 13, 2.5: 13, 3: 13, 4: 37, 5: 37, 8: 121, 64: 5953, 0: 0}  # spec 17 section 8.8 (llvmpipe)
+    counts = {1: 1, 2: 13, 2.5: 13, 3: 13, 4: 37, 5: 37, 8: 121, 64: 5953, 0: 0}  # measured on llvmpipe
     assert {f: fractional_odd_triangles(f) for f in counts} == counts
 
 
@@ -504,9 +505,9 @@ def test_a_camera_looking_away_culls_every_patch(runtime, gl):
 
 @pytest.mark.gl
 def test_tcs_culls_exactly_the_patches_numpy_culls_for_a_camera_seeing_part_of_the_plane(runtime, gl):
-    """Spec 17 section 8.9 with the frustum cull active on some patches only: the camera moved right and closer, so
-    about a third of the patches lie beyond its left plane by more than the slack. Captured factors (0 = culled)
-    must match numpy's per patch."""
+    """The TCS factors against numpy (the chapter page's "Checks") with the frustum cull active on some patches only:
+    the camera moved right and closer, so about a third of the patches lie beyond its left plane by more than the slack.
+    Captured factors (0 = culled) must match numpy's per patch."""
     from ugpcl.viewer.camera import OrbitCamera
 
     size = (192, 108)
@@ -548,9 +549,9 @@ def render_depth(gl, view, camera, size) -> np.ndarray:
 
 @pytest.mark.gl
 def test_depth_of_the_flat_tessellated_plane_is_the_plain_planes_and_a_blob_raises_only_its_footprint(runtime, gl):
-    """Spec 17 section 8.12 on the depth buffers: with zero density the tessellated plane (edge length 2: thousands of
-    triangles) has the depth of the untessellated one within 1e-4 and covers the same pixels; with a blob the depth
-    changes (by more than 1e-4) somewhere, and only inside the blob's projected footprint."""
+    """The chapter page's image check ("Checks") on the depth buffers: with zero density the tessellated plane (edge
+    length 2: thousands of triangles) has the depth of the untessellated one within 1e-4 and covers the same pixels;
+    with a blob the depth changes (by more than 1e-4) somewhere, and only inside the blob's projected footprint."""
     size = (160, 90)
     sim, view, camera = setup_view(runtime, gl, size=size, edge_length=2.0)
     tessellated = render_depth(gl, view, camera, size)
@@ -595,7 +596,7 @@ def test_tes_positions_captured_from_the_gpu_match_numpy(runtime, gl):
         position, normal, uv = b @ tri[:, :3], b @ tri[:, 3:6], b @ tri[:, 10:12]
         d_ref = bilinear_clamp_ref(density, *uv) * sim.params.displacement
         world = model @ np.append(position + normal * d_ref, 1.0)
-        np.testing.assert_allclose([wx, wy, wz], world[:3], atol=tolerance)  # spec 17 section 8.10: 1e-4
+        np.testing.assert_allclose([wx, wy, wz], world[:3], atol=tolerance)  # the chapter page's "Checks": 1e-4
         assert d == pytest.approx(d_ref, abs=tolerance)
     # zero density: every generated vertex lies on the plane
     sim.fluid.set_fields(density=np.zeros((32, 32), np.float32))
@@ -681,7 +682,7 @@ def test_the_fluid_run_shows_a_displaced_lit_plane(runtime, gl):
 # {{{ headless CLI, parameters, view keys
 
 
-def test_cli_run_writes_the_spec_arrays_png_and_mesh(tmp_path):
+def test_cli_run_writes_the_chapter_page_arrays_png_and_mesh(tmp_path):
     out, png, mesh = tmp_path / "t.npz", tmp_path / "t.png", tmp_path / "t.ply"
     cmd = [sys.executable, "-m", "ugpcl", "run", "tessellation", "--steps", "8", "--every", "4", "--out", str(out)]
     cmd += ["--set", "grid=24", "--set", "mesh_level=2", "--set", "edge_length=20", "--png", str(png)]

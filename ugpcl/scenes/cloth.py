@@ -60,7 +60,8 @@ class Params(BaseParams):
     gravity: tuple[float, float, float] = param((0.0, -9.81, 0.0), live=True)
     """Added to each particle's force, then divided by the mass (book: Gravity)."""
     physical_gravity: bool = param(False, live=True)
-    """Treat gravity as an acceleration (force = mass * gravity) instead of the book's force (spec pitfall 6)."""
+    """Treat gravity as an acceleration (force = mass * gravity) instead of the book's force (vol.4 §3.4,
+    Kernels.compute: force = _Gravity, acc = force * invMass)."""
     sphere: bool = param(True, live=True)
     """Collide with the sphere (book: _EnableCollideSphere, true when CollisionSphereTransform is set)."""
     sphere_scale: float = param(2.0, 0.0, lo_open=True, live=True)

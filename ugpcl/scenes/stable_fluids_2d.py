@@ -81,7 +81,7 @@ STROKES = ("circle", "line", "figure8", "none")
 @dataclass(frozen=True)
 class Params(BaseParams):
     width: int = param(640, 3, 8192)
-    """Screen width in pixels; the grid has width >> lod cells along x (the original: Screen.width; spec 04 CLI)."""
+    """Screen width in pixels; the grid has width >> lod cells along x (the original: Screen.width)."""
     height: int = param(360, 3, 8192)
     """Screen height in pixels; the grid has height >> lod rows, row 0 at the bottom (the original: Screen.height)."""
     lod: int = param(0, 0, 8)
@@ -110,7 +110,7 @@ class Params(BaseParams):
     """vol1: this chapter's step; vol4: the stripped copy in vol.4 ch.6 (no pressure sweeps, no AdvectVelocity)."""
     stroke: str = param("circle", choices=STROKES, live=True)
     """Scripted brush: circle (radius 0.25 around the centre, one turn per 120 frames), line (uv 0.3 -> 0.7 at
-    v = 0.5 in 120 frames), figure8, none (spec 04 section 7, replaces the mouse headless)."""
+    v = 0.5 in 120 frames), figure8, none (not in the book: replaces the mouse headless)."""
     stroke_frames: int = param(120, 0, live=True)
     """Frames the scripted stroke holds the brush down from its start; 0 = for the whole run."""
     local_size: tuple[int, int] = param((32, 32), 1, 1024, live=True)

@@ -77,7 +77,7 @@ grid, one work-item per wall cell, as stable_fluids_3d.cl's wall_item() expects.
 @dataclass(frozen=True)
 class Params(BaseParams):
     width: int = param(64, 3, 2048)
-    """Grid cells along x (spec 04 proposal; the original takes Screen.width)."""
+    """Grid cells along x (this port's default; the original takes Screen.width)."""
     height: int = param(64, 3, 2048)
     """Grid cells along y, y = 0 at the bottom (the original takes Screen.height)."""
     depth: int = param(64, 3, 2048)
@@ -95,7 +95,8 @@ class Params(BaseParams):
     gs_iterations: int = param(2, 1, 4096, live=True)
     """Jacobi sweeps per diffusion and per pressure solve (book: GS_ITERATE = 2 in Solver3D.compute)."""
     emitter: bool = param(True, live=True)
-    """Scripted source on: a continuous spherical emitter, headless runs' stand-in for a source (spec 04 proposal)."""
+    """Scripted source on: a continuous spherical emitter, headless runs' stand-in for a source (not in the book: its
+    sample has no 3D scene)."""
     emitter_frames: int = param(0, 0, live=True)
     """Frames the emitter blows from the start; 0 = the whole run (120: a puff, then the smoke drifts)."""
     emitter_center: tuple[float, float, float] = param((0.5, 0.15, 0.5), 0.0, 1.0, live=True)

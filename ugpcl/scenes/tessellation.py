@@ -194,7 +194,7 @@ def fractional_odd_triangles(level: float) -> int:
 @dataclass(frozen=True)
 class Params(BaseParams):
     grid: int = param(256, 8, 4096)
-    """Fluid cells per side, a square grid under the square plane (the original: the window >> lod; spec: 512)."""
+    """Fluid cells per side, a square grid under the square plane (the original: the window >> lod)."""
     diff: float = param(10.0, 0.0, live=True)
     """Density diffusion (book: diff; FuidTessellation's Solver)."""
     visc: float = param(100.0, 0.0, live=True)
@@ -210,9 +210,10 @@ class Params(BaseParams):
     source_radius: float = param(0.072, 0.0, 1.0, lo_open=True, live=True)
     """Brush radius in uv units (book: sourceRadius and AddSource.mat _Radius in the scene)."""
     stroke: str = param("circle", choices=STROKES, live=True)
-    """Scripted brush path (spec 17 section 7): circle, line, figure8 or none; the mouse overrides it."""
+    """Scripted brush path (not in the book: a headless stand-in for the mouse): circle, line, figure8 or none; the
+    mouse overrides it."""
     stroke_frames: int = param(0, 0, live=True)
-    """Frames the scripted stroke holds the brush down; 0 = every frame (spec 17: button held on all frames)."""
+    """Frames the scripted stroke holds the brush down; 0 = every frame (the button held down throughout)."""
     edge_length: float = param(2.0, 2.0, 50.0, live=True)
     """Target length of a tessellated edge on screen, pixels (book: _EdgeLength; TessellationSurface.mat 2)."""
     displacement: float = param(0.5, 0.0, 30.0, live=True)

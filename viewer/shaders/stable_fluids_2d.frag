@@ -1,6 +1,6 @@
 #version 430 core
 // Sample.shader (vol.1 ch.4): col = the camera's white * (1 - 5 * density), saturated: black ink on white.
-// Other display modes (spec 04 section 6 proposals): density grey, velocity, |divergence| heat map.
+// Other display modes (not in the book): density grey, velocity, |divergence| heat map.
 uniform sampler2D solver;  // Draw output (u, v, density, 1), one texel per cell, row 0 at the bottom
 uniform int display_mode;  // 0 ink, 1 density, 2 velocity, 3 |divergence|
 uniform bool ink_effect;   // the original's RenderEffect on/off: off shows the camera's plain white

@@ -24,7 +24,7 @@ from .stable_fluids_2d import FluidKeyActions
 TEXTURE_UNITS = {"displacement_map": 0, "normal_map": 1, "shadow_map": 2, "solver": 3}
 """Texture units by sampler name (the density inset uses the 2D fluid view's shader and its `solver`)."""
 DISPLACEMENT_STEP = 0.05
-"""+ and - change displacement by this much (spec 17 section 6)."""
+"""+ and - change displacement by this much (the book's sample has no keys for it)."""
 INSET_FRACTION = 0.3
 """The density inset's side as a fraction of the window height."""
 LIGHTING = ("auto", "height", "mesh")
