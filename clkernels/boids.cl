@@ -130,10 +130,9 @@ __kernel void ForceCS_grid(const __global Boid* boid_data, __global float4* boid
     const Rules rules = RULES_INIT;
     const Boid me = boid_data[p_id];
     Neighbourhood nb = {(float3)(0.0f), (float3)(0.0f), (float3)(0.0f), 0, 0, 0};
-    GridNeighbours it = grid_neighbours(me.position.xyz, origin.xyz, cell_size, dims);
-    int j;
-    while (grid_next_neighbour(&it, keys, cell_start, cell_end, &j)) {
-        const Boid other = boid_data[j];
+    const int4 home = grid_cell_coord(me.position.xyz, origin.xyz, cell_size, dims);
+    GRID_FOR_EACH_NEIGHBOUR_KEY(k, home, dims, cell_start, cell_end) {
+        const Boid other = boid_data[grid_item(keys[k])];
         meet(&nb, &rules, me.position.xyz, other.position.xyz, other.velocity.xyz);
     }
     boid_force[p_id] = steering_force(&nb, &rules, me.position.xyz, me.velocity.xyz);

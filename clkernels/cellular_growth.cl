@@ -201,9 +201,9 @@ __kernel void UpdateParticles_grid(const __global Particle* particles_read, __gl
     Particle p = particles_read[idx];
     if (p.alive) {
         p.radius = grown_radius(p, dt, grow);
-        GridNeighbours it = grid_neighbours((float3)(p.position, 0.0f), origin.xyz, cell_size, dims);  // 2D: 3x3
-        int i;
-        while (grid_next_neighbour(&it, keys, cell_start, cell_end, &i)) {
+        const int4 home = grid_cell_coord((float3)(p.position, 0.0f), origin.xyz, cell_size, dims);  // 2D: 3x3
+        GRID_FOR_EACH_NEIGHBOUR_KEY(k, home, dims, cell_start, cell_end) {
+            const int i = grid_item(keys[k]);
             const Particle other = particles_read[i];
             if (i == idx || !other.alive) continue;
             repel(&p, idx, other, i, repulsion);

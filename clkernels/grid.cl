@@ -63,10 +63,10 @@ __kernel void GridCountNeighbours(const __global float* items, int stride, int o
     if (i >= n) return;
     const __global float* p = items + (size_t)i * stride + offset;
     const float3 me = (float3)(p[0], p[1], dims.z > 1 ? p[2] : 0.0f);
-    GridNeighbours it = grid_neighbours(me, origin.xyz, cell_size, dims);
-    int found = 0, j;
-    while (grid_next_neighbour(&it, keys, cell_start, cell_end, &j)) {
-        const __global float* q = items + (size_t)j * stride + offset;
+    const int4 home = grid_cell_coord(me, origin.xyz, cell_size, dims);
+    int found = 0;
+    GRID_FOR_EACH_NEIGHBOUR_KEY(k, home, dims, cell_start, cell_end) {
+        const __global float* q = items + (size_t)grid_item(keys[k]) * stride + offset;
         const float3 other = (float3)(q[0], q[1], dims.z > 1 ? q[2] : 0.0f);
         const float3 d = me - other;
         if (dot(d, d) <= radius * radius) found++;  // counts the item itself
@@ -84,8 +84,10 @@ __kernel void GridListNeighbours(const __global float* items, int stride, int of
     const __global float* p = items + (size_t)i * stride + offset;
     const float3 me = (float3)(p[0], p[1], dims.z > 1 ? p[2] : 0.0f);
     __global int* out = found + (size_t)i * max_found;
-    GridNeighbours it = grid_neighbours(me, origin.xyz, cell_size, dims);
-    int count = 0, j;
-    while (count < max_found && grid_next_neighbour(&it, keys, cell_start, cell_end, &j)) out[count++] = j;
+    const int4 home = grid_cell_coord(me, origin.xyz, cell_size, dims);
+    int count = 0;
+    GRID_FOR_EACH_NEIGHBOUR_KEY(k, home, dims, cell_start, cell_end) {
+        if (count < max_found) out[count++] = grid_item(keys[k]);
+    }
     for (; count < max_found; count++) out[count] = -1;
 }

@@ -214,9 +214,9 @@ __kernel void Search_grid(__global Attraction* attractions, int attraction_count
     attr.found = 0u;
     if (!attr.active) return;
     float min_dist = influence_distance;
-    GridNeighbours it = grid_neighbours(POSITION(attr), origin.xyz, cell_size, dims);
-    int i;
-    while (grid_next_neighbour(&it, keys, cell_start, cell_end, &i)) {
+    const int4 home = grid_cell_coord(POSITION(attr), origin.xyz, cell_size, dims);
+    GRID_FOR_EACH_NEIGHBOUR_KEY(k, home, dims, cell_start, cell_end) {
+        const int i = grid_item(keys[k]);
         const float d = length(POSITION(attr) - POSITION(nodes[i]));
         if (d < min_dist || (attr.found && d == min_dist && i < attr.nearest)) {
             min_dist = d;
@@ -240,10 +240,10 @@ __kernel void Attract_grid(const __global Attraction* attractions, const __globa
     if (!(n.active && n.t >= 1.0f)) return;
     float3 dir = (float3)(0.0f);
     int counter = 0;
-    GridNeighbours it = grid_neighbours(POSITION(n), origin.xyz, cell_size, dims);
-    int i;
-    while (grid_next_neighbour(&it, keys, cell_start, cell_end, &i))
-        attract_direction(attractions[i], idx, POSITION(n), &dir, &counter);
+    const int4 home = grid_cell_coord(POSITION(n), origin.xyz, cell_size, dims);
+    GRID_FOR_EACH_NEIGHBOUR_KEY(k, home, dims, cell_start, cell_end) {
+        attract_direction(attractions[grid_item(keys[k])], idx, POSITION(n), &dir, &counter);
+    }
     emit_candidate(idx, POSITION(n), dir, counter, growth_distance, repeat_guard, last_candidate, candidate_counter,
                    candidates, candidate_capacity);
 }
@@ -254,10 +254,9 @@ __kernel void Remove_grid(__global Attraction* attractions, int attraction_count
     if (idx >= attraction_count) return;
     Attraction attr = attractions[idx];
     if (!attr.active) return;
-    GridNeighbours it = grid_neighbours(POSITION(attr), origin.xyz, cell_size, dims);
-    int i;
-    while (grid_next_neighbour(&it, keys, cell_start, cell_end, &i)) {
-        if (distance(POSITION(attr), POSITION(nodes[i])) < kill_distance) {
+    const int4 home = grid_cell_coord(POSITION(attr), origin.xyz, cell_size, dims);
+    GRID_FOR_EACH_NEIGHBOUR_KEY(k, home, dims, cell_start, cell_end) {
+        if (distance(POSITION(attr), POSITION(nodes[grid_item(keys[k])])) < kill_distance) {
             attr.active = 0u;
             attractions[idx] = attr;
             return;

@@ -129,10 +129,10 @@ __kernel void DensityCS_grid(const __global FluidParticle* particles_in, __globa
     if (P_ID >= n) return;
     const float h_sq = h * h;
     const float2 P_position = particles_in[P_ID].position;
-    GridNeighbours it = grid_neighbours((float3)(P_position, 0.0f), origin.xyz, cell_size, dims);  // 2D: 3x3 cells
+    const int4 home = grid_cell_coord((float3)(P_position, 0.0f), origin.xyz, cell_size, dims);  // 2D: 3x3 cells
     float sum = 0.0f;
-    int N_ID;
-    while (grid_next_neighbour(&it, keys, cell_start, cell_end, &N_ID)) {
+    GRID_FOR_EACH_NEIGHBOUR_KEY(k, home, dims, cell_start, cell_end) {
+        const int N_ID = grid_item(keys[k]);
         if (N_ID == P_ID) continue;  // skip own ID (book)
         sum += density_term(particles_in, N_ID, P_position, h_sq, density_coef);
     }
@@ -180,10 +180,10 @@ __kernel void ForceCS_grid(const __global FluidParticle* particles_in, const __g
     const ForceCoefs c = {h, h * h, grad_pressure_coef, lap_viscosity_coef, min_density};
     const FluidParticle P = particles_in[P_ID];
     const float P_pressure = pressure[P_ID];
-    GridNeighbours it = grid_neighbours((float3)(P.position, 0.0f), origin.xyz, cell_size, dims);  // 2D: 3x3 cells
+    const int4 home = grid_cell_coord((float3)(P.position, 0.0f), origin.xyz, cell_size, dims);  // 2D: 3x3 cells
     ForceSums sums = {(float2)(0.0f), (float2)(0.0f)};
-    int N_ID;
-    while (grid_next_neighbour(&it, keys, cell_start, cell_end, &N_ID)) {
+    GRID_FOR_EACH_NEIGHBOUR_KEY(k, home, dims, cell_start, cell_end) {
+        const int N_ID = grid_item(keys[k]);
         if (N_ID == P_ID) continue;  // skip own ID
         force_term(&sums, &c, particles_in, density, pressure, N_ID, P, P_pressure);
     }
