@@ -89,6 +89,10 @@ def test_every_k_stacks_a_history(capsys, tmp_path):
         (["run", "boids", "--out", "noext"], "--out must end in .npz, got 'noext'"),
         (["run", "boids", "--png", "x.jpg"], "--png must end in .png"),
         (["run", "boids", "--png-size", "10x10"], "--png-size must be WxH with 16..8192 each"),
+        (
+            ["run", "boids", "--seed", str(2**64)],
+            "--seed must be in [0, 9223372036854775807], got 18446744073709551616",
+        ),
         (["run", "boids", "--out", "/etc/hostname/x.npz"], "--out /etc/hostname/x.npz: cannot write in /etc/hostname"),
     ],
 )
@@ -234,3 +238,10 @@ def test_view_without_a_display_says_so_in_one_line():
     view = __import__("pathlib").Path(sys.executable).parent / "ugpcl-view"
     result = subprocess.run([str(view), "boids"], capture_output=True, text=True, timeout=60, env=env)
     assert result.returncode == 1 and result.stderr.count("\n") == 1 and "no display" in result.stderr
+
+
+def test_a_pyopencl_ctx_that_selects_nothing_is_one_line(capsys, monkeypatch, tmp_path):
+    monkeypatch.delenv("UGPCL_DEVICE", raising=False)
+    monkeypatch.setenv("PYOPENCL_CTX", "9")
+    code, _, err = run(capsys, "run", "boids", "--steps", "1", "--out", str(tmp_path / "x.npz"))
+    assert code == 1 and err.count("\n") == 1 and "PYOPENCL_CTX='9' does not select a device" in err, err

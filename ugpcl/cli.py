@@ -27,6 +27,8 @@ from .scene import Scene, Simulation, check_dt
 from .scenes import get, modules, scenes
 
 USAGE_ERROR, RUNTIME_ERROR, INTERRUPTED = 2, 1, 130
+MAX_SEED = 2**63 - 1
+"""Largest --seed: the .npz stores it as int64."""
 STEPS_IN_FLIGHT = 4
 """Steps ``ugpcl run`` lets the device queue hold before it waits for the oldest: the progress bar counts
 finished steps, and the host never runs far ahead of the device."""
@@ -253,6 +255,8 @@ def cmd_run(args) -> int:
     params = _params(scene, parse_sets(scene, args.set or []))
     if args.steps < 0:
         raise UsageError(f"--steps must be >= 0, got {args.steps}")
+    if not 0 <= args.seed <= MAX_SEED:
+        raise UsageError(f"--seed must be in [0, {MAX_SEED}], got {args.seed}")
     if args.every is not None and args.every < 1:
         raise UsageError(f"--every must be >= 1, got {args.every}")
     if args.every and not scene.simulation.history:
@@ -408,7 +412,7 @@ def report(prog: str, err: BaseException) -> str:
     """One line for an error that ends a run: its message's first line, with the exception's kind where the
     message alone would not say what failed."""
     text = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
-    if isinstance(err, cl.Error | MemoryError):
+    if isinstance(err, cl.Error | MemoryError | ArithmeticError):
         text = f"{type(err).__name__}: {text}"
     return f"{prog}: error: {text}"
 
@@ -426,7 +430,7 @@ def main(argv: list[str] | None = None) -> int:
     except (DeviceError, BuildError) as err:
         print(f"ugpcl: {err}", file=sys.stderr)
         return RUNTIME_ERROR
-    except (ValueError, RuntimeError, cl.Error, OSError, MemoryError) as err:
+    except (ValueError, ArithmeticError, RuntimeError, cl.Error, OSError, MemoryError) as err:
         if isinstance(err, BrokenPipeError):
             return quiet_broken_pipe()
         print(report("ugpcl", err), file=sys.stderr)

@@ -99,7 +99,13 @@ def choose_device(wanted: str | None = None) -> tuple[cl.Device, str]:
         names = "; ".join(_label(d) for d in devices)
         raise DeviceError(f"UGPCL_DEVICE={wanted!r} matches no OpenCL device (have: {names})")
     if os.environ.get("PYOPENCL_CTX"):
-        ctx = cl.create_some_context(interactive=False)
+        try:
+            ctx = cl.create_some_context(interactive=False)
+        except (cl.Error, RuntimeError, ValueError) as err:  # PyOpenCL says only "input did not match any platform"
+            names = "; ".join(_label(d) for d in devices)
+            raise DeviceError(
+                f"PYOPENCL_CTX={os.environ['PYOPENCL_CTX']!r} does not select a device ({err}); have: {names}"
+            ) from None
         return ctx.devices[0], f"PYOPENCL_CTX={os.environ['PYOPENCL_CTX']!r}"
     real = [d for d in devices if not _is_simulator(d.platform)]
     for kind, why in ((cl.device_type.GPU, "first GPU"), (cl.device_type.CPU, "first CPU")):
