@@ -245,3 +245,45 @@ def test_a_pyopencl_ctx_that_selects_nothing_is_one_line(capsys, monkeypatch, tm
     monkeypatch.setenv("PYOPENCL_CTX", "9")
     code, _, err = run(capsys, "run", "boids", "--steps", "1", "--out", str(tmp_path / "x.npz"))
     assert code == 1 and err.count("\n") == 1 and "PYOPENCL_CTX='9' does not select a device" in err, err
+
+
+def _ugpcl() -> str:
+    return str(__import__("pathlib").Path(sys.executable).parent / "ugpcl")
+
+
+@pytest.mark.parametrize("sig, code, line", [("SIGINT", 130, "interrupted"), ("SIGTERM", 143, "terminated (SIGTERM)")])
+def test_an_interrupted_run_ends_cleanly_and_keeps_the_old_file(tmp_path, sig, code, line):
+    import signal
+    import time
+
+    out = tmp_path / "x.npz"
+    out.write_bytes(b"the previous result")
+    argv = [_ugpcl(), "run", "boids", "--steps", "100000", "--set", "max_object_num=1024", "--out", str(out)]
+    proc = subprocess.Popen(argv, stderr=subprocess.PIPE, text=True)
+    assert proc.stderr.readline().startswith("ugpcl: boids on")  # the run has started
+    time.sleep(1.0)
+    proc.send_signal(getattr(signal, sig))
+    err = proc.stderr.read()
+    assert proc.wait(timeout=60) == code
+    assert err.strip().splitlines()[-1] == f"ugpcl: {line}; nothing was written" and "Traceback" not in err
+    assert out.read_bytes() == b"the previous result" and sorted(tmp_path.iterdir()) == [out]
+
+
+def test_sigkill_while_the_npz_is_written_keeps_the_previous_file(tmp_path):
+    """The .npz goes to a hidden temporary name and is renamed when complete: killed while writing, the previous
+    result stays whole."""
+    import time
+
+    out = tmp_path / "x.npz"
+    out.write_bytes(b"the previous result")
+    argv = [_ugpcl(), "run", "stable_fluids_2d", "--steps", "40", "--every", "1", "--out", str(out)]
+    argv += ["--set", "width=1024", "height=1024"]  # ~170 MB of history: the write takes a while
+    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    partial = tmp_path / ".x.partial.npz"
+    deadline = time.monotonic() + 240
+    while not (partial.exists() and partial.stat().st_size > 0) and proc.poll() is None:
+        assert time.monotonic() < deadline, "the run never started writing"
+        time.sleep(0.002)
+    proc.kill()
+    proc.wait(timeout=60)
+    assert out.read_bytes() == b"the previous result", "SIGKILL during the write damaged the previous file"

@@ -2,8 +2,9 @@
 
 Results go to stdout, logs, progress and errors to stderr. Exit codes: 0 ok; 2 bad usage (unknown scene, bad
 parameter, an output path that cannot be written), found before anything runs; 1 a failure while running (no
-device, a build error, a pool or grid that runs out, a file that cannot be written); 130 interrupted (Ctrl-C).
-Every error is one line.
+device, a build error, a pool or grid that runs out, a file that cannot be written); 130 interrupted (Ctrl-C),
+143 terminated (SIGTERM). Every error is one line; an interrupted run leaves earlier output files untouched (a
+file is written to a temporary name and renamed when complete).
 """
 
 from __future__ import annotations
@@ -11,10 +12,13 @@ from __future__ import annotations
 import argparse
 import os
 import shutil
+import signal
 import sys
 import textwrap
+import threading
 import time
 from collections import deque
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +30,7 @@ from .runtime import BuildError, DeviceError, Runtime, all_devices
 from .scene import Scene, Simulation, check_dt
 from .scenes import get, modules, scenes
 
-USAGE_ERROR, RUNTIME_ERROR, INTERRUPTED = 2, 1, 130
+USAGE_ERROR, RUNTIME_ERROR, INTERRUPTED, TERMINATED = 2, 1, 130, 143
 MAX_SEED = 2**63 - 1
 """Largest --seed: the .npz stores it as int64."""
 STEPS_IN_FLIGHT = 4
@@ -36,6 +40,14 @@ finished steps, and the host never runs far ahead of the device."""
 
 class UsageError(Exception):
     """Bad input from the command line, found before the run starts: printed as one line, exit 2."""
+
+
+class Terminated(Exception):
+    """SIGTERM arrived: ends the run like Ctrl-C does, with exit 143 (128 + SIGTERM)."""
+
+
+def _on_sigterm(signum, frame):
+    raise Terminated
 
 
 # {{{ tables
@@ -237,16 +249,23 @@ def output_path(text: str | None, option: str, suffixes: tuple[str, ...]) -> Pat
     return path
 
 
-def write_npz(path: Path, arrays: dict) -> None:
-    """Write ``path`` whole or not at all: a temporary file in the same folder, renamed over the old one."""
+@contextmanager
+def written_whole(path: Path):
+    """Yield a temporary name beside ``path`` (same suffix, so writers that go by it still do); rename it over
+    ``path`` when the block completes, remove it otherwise. A reader never sees a half-written file, and an
+    interrupted run leaves the previous one in place."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    partial = path.with_name(f".{path.name}.partial")
+    partial = path.with_name(f".{path.stem}.partial{path.suffix}")
     try:
-        with open(partial, "wb") as f:
-            np.savez(f, **arrays)
+        yield partial
         os.replace(partial, path)
     finally:
         partial.unlink(missing_ok=True)
+
+
+def write_npz(path: Path, arrays: dict) -> None:
+    with written_whole(path) as partial, open(partial, "wb") as f:
+        np.savez(f, **arrays)
 
 
 def cmd_run(args) -> int:
@@ -295,14 +314,14 @@ def cmd_run(args) -> int:
     for key, value in sim.stats().items():
         print(f"  {key}: {value}")
     if mesh:
-        mesh.parent.mkdir(parents=True, exist_ok=True)
-        sim.export_mesh(mesh)
+        with written_whole(mesh) as partial:
+            sim.export_mesh(partial)
         print(f"wrote {mesh}")
     if png:
         from .viewer.offscreen import render_png
 
-        png.parent.mkdir(parents=True, exist_ok=True)
-        render_png(scene, sim, png, size)
+        with written_whole(png) as partial:
+            render_png(scene, sim, partial, size)
         print(f"wrote {png}")
     return 0
 
@@ -420,6 +439,10 @@ def report(prog: str, err: BaseException) -> str:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    # SIGTERM ends a run as Ctrl-C does (old outputs untouched); the caller's handler is restored afterwards
+    previous = (
+        signal.signal(signal.SIGTERM, _on_sigterm) if threading.current_thread() is threading.main_thread() else None
+    )
     try:
         code = args.func(args)
         sys.stdout.flush()  # a closed pipe shows here, inside the try, rather than at exit
@@ -436,8 +459,14 @@ def main(argv: list[str] | None = None) -> int:
         print(report("ugpcl", err), file=sys.stderr)
         return RUNTIME_ERROR
     except KeyboardInterrupt:
-        print("ugpcl: interrupted", file=sys.stderr)
+        print("ugpcl: interrupted; nothing was written", file=sys.stderr)
         return INTERRUPTED
+    except Terminated:
+        print("ugpcl: terminated (SIGTERM); nothing was written", file=sys.stderr)
+        return TERMINATED
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 def quiet_broken_pipe() -> int:
