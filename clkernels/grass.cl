@@ -5,9 +5,9 @@
 // runs (.npz, meshes) and tests: one work-item per input triangle writes that triangle's fixed output slots (the
 // emission count is constant), so there are no atomics, no local memory and no barriers.
 // Kernels, in host call order (one per frame of the scene they belong to):
-//   1. grass_expand    tri, pos, nrm, per-vertex hei/rot/wind, plane models, GrassParams -> blade_pos (B, 7, 3),
+//   1. GrassExpand     tri, pos, nrm, per-vertex hei/rot/wind, plane models, GrassParams -> blade_pos (B, 7, 3),
 //                      blade_col (B, 7, 4), blade_h/blade_rot/blade_wind (B,): Grass.shader geom(), world space
-//   2. pyramid_expand  tri, pos, model -> pyr_pos (T, 12, 3), pyr_col (T, 12, 4): SimpleGeometryShader geom()
+//   2. PyramidExpand   tri, pos, model -> pyr_pos (T, 12, 3), pyr_col (T, 12, 4): SimpleGeometryShader geom()
 // Build defines: none. Meshes are packed float triplets read with vload3 (never float3 in a buffer: 16 bytes in
 // OpenCL, 12 in numpy). Model matrices are row-major float[16], one per plane.
 // Differences from the book: the blade direction normalize((p2 - p0) * (rot - 0.5)) is computed as
@@ -28,20 +28,20 @@ inline float3 transform_point(__global const float* m, float3 p) {
 }
 
 // Grass.shader geom(): triangle b % triangles_per_plane of plane b / triangles_per_plane becomes one blade.
-__kernel void grass_expand(__global const uint* tri,          // (T, 3) vertex indices of one plane mesh
-                           __global const float* pos,         // (V, 3) object-space positions
-                           __global const float* nrm,         // (V, 3) object-space normals
-                           __global const float* hei,         // (V,) HeightMap.r at each vertex (vert())
-                           __global const float* rot,         // (V,) RotationMap.r
-                           __global const float* wind,        // (V,) WindMap.r
-                           __global const float* models,      // (P, 16) row-major plane matrices
-                           int triangles_per_plane, int blades,
-                           __constant GrassParams* p,
-                           __global float* blade_pos,         // (B, 7, 3) world-space strip vertices
-                           __global float* blade_col,         // (B, 7, 4) vertex colours
-                           __global float* blade_h,           // (B,) triangle means of the three maps
-                           __global float* blade_rot,
-                           __global float* blade_wind) {
+__kernel void GrassExpand(__global const uint* tri,          // (T, 3) vertex indices of one plane mesh
+                          __global const float* pos,         // (V, 3) object-space positions
+                          __global const float* nrm,         // (V, 3) object-space normals
+                          __global const float* hei,         // (V,) HeightMap.r at each vertex (vert())
+                          __global const float* rot,         // (V,) RotationMap.r
+                          __global const float* wind,        // (V,) WindMap.r
+                          __global const float* models,      // (P, 16) row-major plane matrices
+                          int triangles_per_plane, int blades,
+                          __constant GrassParams* p,
+                          __global float* blade_pos,         // (B, 7, 3) world-space strip vertices
+                          __global float* blade_col,         // (B, 7, 4) vertex colours
+                          __global float* blade_h,           // (B,) triangle means of the three maps
+                          __global float* blade_rot,
+                          __global float* blade_wind) {
     int b = get_global_id(0);
     if (b >= blades) return;
     int plane = b / triangles_per_plane;
@@ -99,13 +99,13 @@ __kernel void grass_expand(__global const uint* tri,          // (T, 3) vertex i
 }
 
 // SimpleGeometryShader geom(): every triangle becomes a triangular pyramid, apex pushed along object -Z.
-__kernel void pyramid_expand(__global const uint* tri,   // (T, 3)
-                             __global const float* pos,  // (V, 3) object-space positions
-                             __global const float* model,  // (16,) row-major object -> world
-                             int triangles, float height,
-                             float4 top_color, float4 bottom_color,
-                             __global float* pyr_pos,    // (T, 12, 3) world space
-                             __global float* pyr_col) {  // (T, 12, 4)
+__kernel void PyramidExpand(__global const uint* tri,   // (T, 3)
+                            __global const float* pos,  // (V, 3) object-space positions
+                            __global const float* model,  // (16,) row-major object -> world
+                            int triangles, float height,
+                            float4 top_color, float4 bottom_color,
+                            __global float* pyr_pos,    // (T, 12, 3) world space
+                            __global float* pyr_col) {  // (T, 12, 4)
     int t = get_global_id(0);
     if (t >= triangles) return;
     float3 p0 = vload3(tri[3 * t], pos), p1 = vload3(tri[3 * t + 1], pos), p2 = vload3(tri[3 * t + 2], pos);

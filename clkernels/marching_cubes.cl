@@ -3,16 +3,16 @@
 // invocation per grid cell, GPUMarchingCubesRenderMesh.shader); these kernels do the same work per cell for headless
 // meshes.
 // Kernels, in host call order per frame:
-//   1. mc_field              -> field[(N+1)^3]: the book's Sample(x, y, z) at every grid point (index x + (N+1)*(y +
+//   1. SampleField           -> field[(N+1)^3]: the book's Sample(x, y, z) at every grid point (index x + (N+1)*(y +
 //                               (N+1)*z)), evaluated once instead of 8 times per cell as the GS does
-//   2. mc_polygonize_append  field -> triangles + counter: one work-item per cell appends its 0..5 triangles to the
+//   2. PolygonizeAppend      field -> triangles + counter: one work-item per cell appends its 0..5 triangles to the
 //                               shared Pool (pool.h: atomic_inc, clamped at capacity, refusals counted)
 //   or the deterministic two-pass path:
-//   2a. mc_classify          field -> cell_ntri[N^3]: triangles per cell
-//   2b. scan_blocks, add_block_offsets  cell_ntri -> cell_off[N^3]: exclusive prefix sum (per work-group in __local
+//   2a. ClassifyCells        field -> cell_ntri[N^3]: triangles per cell
+//   2b. ScanBlocks, AddBlockOffsets  cell_ntri -> cell_off[N^3]: exclusive prefix sum (per work-group in __local
 //                               memory, block sums scanned recursively by the host)
-//   2c. mc_generate          field, cell_ntri, cell_off -> triangles[cell_off[cell] ...]: output in cell order
-// Build defines: SCAN_BLOCK_SIZE = work-group size of scan_blocks (a power of two; 256).
+//   2c. GenerateTriangles    field, cell_ntri, cell_off -> triangles[cell_off[cell] ...]: output in cell order
+// Build defines: SCAN_BLOCK_SIZE = work-group size of ScanBlocks (a power of two; 256).
 // Arguments shared by the field and normal code: N (book: _SegmentNum), shape (SHAPE_*), radius.xyz = the three
 // sphere radii at time t and twist = the kaiware's twist at t, both computed on the host from t (one sin per frame
 // instead of one per sample; the book evaluates them inside Sample).
@@ -23,7 +23,7 @@
 #include "pool.h"                   // pool_append
 
 #ifndef SCAN_BLOCK_SIZE
-#error "build with -D SCAN_BLOCK_SIZE=<work-group size of scan_blocks, a power of two>"
+#error "build with -D SCAN_BLOCK_SIZE=<work-group size of ScanBlocks, a power of two>"
 #endif
 
 #define SHAPE_SPHERES 0            // three metaball spheres (radii from the host: repository or book listing)
@@ -199,7 +199,7 @@ inline void store_triangle(__global McTriangle* dst, int flag_index, int i, cons
 
 // {{{ 1. the field
 
-__kernel void mc_field(__global float* field, FIELD_ARGS) {
+__kernel void SampleField(__global float* field, FIELD_ARGS) {
     const int points = (N + 1) * (N + 1) * (N + 1);
     const int id = get_global_id(0);
     if (id >= points) return;
@@ -211,8 +211,8 @@ __kernel void mc_field(__global float* field, FIELD_ARGS) {
 
 // {{{ 2. append path (one work-item per cell = one GS invocation per point of the book's mesh)
 
-__kernel void mc_polygonize_append(const __global float* field, float threshold, int normals, FIELD_ARGS,
-                                   __global McTriangle* triangles, volatile __global int* counter, int capacity) {
+__kernel void PolygonizeAppend(const __global float* field, float threshold, int normals, FIELD_ARGS,
+                               __global McTriangle* triangles, volatile __global int* counter, int capacity) {
     const int cell = get_global_id(0);
     if (cell >= N * N * N) return;  // exactly N^3 cells (the book's 65535-point meshes wrap and repeat cells)
     const int3 c = (int3)(cell % N, (cell / N) % N, cell / (N * N));
@@ -234,7 +234,7 @@ __kernel void mc_polygonize_append(const __global float* field, float threshold,
 
 // {{{ 2a-2c. two-pass path
 
-__kernel void mc_classify(const __global float* field, float threshold, int N, __global uint* cell_ntri) {
+__kernel void ClassifyCells(const __global float* field, float threshold, int N, __global uint* cell_ntri) {
     const int cell = get_global_id(0);
     if (cell >= N * N * N) return;
     const int3 c = (int3)(cell % N, (cell / N) % N, cell / (N * N));
@@ -245,7 +245,7 @@ __kernel void mc_classify(const __global float* field, float threshold, int N, _
 // Exclusive scan of SCAN_BLOCK_SIZE values per work-group (Hillis-Steele in __local memory); the group's total
 // goes to block_sums[group] for the next level. Padding work-items (id >= n) scan a 0 and write nothing.
 __kernel __attribute__((reqd_work_group_size(SCAN_BLOCK_SIZE, 1, 1)))
-void scan_blocks(const __global uint* in, __global uint* out, __global uint* block_sums, int n) {
+void ScanBlocks(const __global uint* in, __global uint* out, __global uint* block_sums, int n) {
     __local uint sums[SCAN_BLOCK_SIZE];
     const int id = get_global_id(0), lid = get_local_id(0);
     const uint own = id < n ? in[id] : 0u;
@@ -261,16 +261,16 @@ void scan_blocks(const __global uint* in, __global uint* out, __global uint* blo
     if (lid == SCAN_BLOCK_SIZE - 1) block_sums[get_group_id(0)] = sums[lid];
 }
 
-// out[i] += the exclusive sum of all earlier blocks (the scanned block_sums of scan_blocks).
-__kernel void add_block_offsets(__global uint* out, const __global uint* block_offsets, int n) {
+// out[i] += the exclusive sum of all earlier blocks (the scanned block_sums of ScanBlocks).
+__kernel void AddBlockOffsets(__global uint* out, const __global uint* block_offsets, int n) {
     const int id = get_global_id(0);
     if (id >= n) return;
     out[id] += block_offsets[id / SCAN_BLOCK_SIZE];
 }
 
-__kernel void mc_generate(const __global float* field, float threshold, int normals, FIELD_ARGS,
-                          const __global uint* cell_ntri, const __global uint* cell_off,
-                          __global McTriangle* triangles, int capacity) {
+__kernel void GenerateTriangles(const __global float* field, float threshold, int normals, FIELD_ARGS,
+                                const __global uint* cell_ntri, const __global uint* cell_off,
+                                __global McTriangle* triangles, int capacity) {
     const int cell = get_global_id(0);
     if (cell >= N * N * N) return;
     const int count = cell_ntri[cell];

@@ -1,4 +1,4 @@
-"""Geometry shaders: pyramid and grass (vol.1 ch.6; docs/chapters/06-grass.md): layout, grass_expand/pyramid_expand
+"""Geometry shaders: pyramid and grass (vol.1 ch.6; docs/chapters/06-grass.md): layout, GrassExpand/PyramidExpand
 against a float64 numpy port of the book's geom() functions, golden blades, invariants, CLI, the GLSL shaders
 themselves (transform feedback, primitive queries, pixels), Oclgrind."""
 
@@ -580,7 +580,7 @@ def test_grass_geometry_shader_matches_grass_expand(glr):
 @pytest.mark.gl
 def test_grass_geometry_shader_matches_the_reference_on_a_tilted_mesh(glr, seed):
     """Transform feedback of grass.vert/grass.geom on the random tilted mesh (tilted normals, UVs wrapping, three
-    instanced affine models) against the float64 port of the book's geom() and against grass_expand."""
+    instanced affine models) against the float64 port of the book's geom() and against GrassExpand."""
     from ugpcl.viewer.offscreen import frame
 
     mesh, models, maps = tilted_mesh(seed)
@@ -724,11 +724,11 @@ def test_view_keys_change_the_parameters(glr):
 @pytest.mark.oclgrind
 def test_kernels_on_oclgrind(oclgrind, seed):
     sim = Simulation(oclgrind, Params(planes=(2, 1), plane_resolution=2, start_time=5.0, wind_time_scale=1.0), seed)
-    sim.step()  # grass_expand: 16 blades over 2 planes
+    sim.step()  # GrassExpand: 16 blades over 2 planes
     reference = Simulation(oclgrind, Params(planes=(2, 1), plane_resolution=2, backend="numpy"), seed)
     reference.update(start_time=5.0, wind_time_scale=1.0)
     reference.step()
     np.testing.assert_allclose(sim.state()["blade_pos"], reference.state()["blade_pos"], atol=1e-4)
     pyramid = PyramidSimulation(oclgrind, PyramidParams(), seed)
-    pyramid.step()  # pyramid_expand: the quad's 2 triangles
+    pyramid.step()  # PyramidExpand: the quad's 2 triangles
     assert np.isfinite(pyramid.state()["pyr_pos"]).all()

@@ -83,10 +83,10 @@ def test_header_parser_on_a_sample():
 //   1. First        a -> b: the first kernel
 //                   continued here (prose: no two spaces after its first word)
 //      First_grid   the same through the grid
-//   2b. scan_blocks, add_block_offsets  two kernels on one line
+//   2b. ScanBlocks, AddBlockOffsets  two kernels on one line
 //   then the host swaps a and b.
 // Build defines: NotAKernel  none.
 __kernel void First(int a) {}
 """
-    assert listed_kernels(sample) == ["First", "First_grid", "scan_blocks", "add_block_offsets"]
+    assert listed_kernels(sample) == ["First", "First_grid", "ScanBlocks", "AddBlockOffsets"]
     assert defined_kernels(sample + "// __kernel void Commented(int a) {}\n") == ["First"]

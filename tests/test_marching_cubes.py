@@ -298,7 +298,7 @@ def test_generated_header_is_up_to_date():
         (33, "kaiware", 5.0),
     ],
 )
-def test_mc_field_matches_reference(runtime, n, shape, t):
+def test_sample_field_matches_reference(runtime, n, shape, t):
     sim = make(runtime, n, shape=shape, time=t)
     field = sim.field_array()
     expected = field_reference(n, shape, t)
@@ -423,7 +423,7 @@ def test_full_pool_refuses_and_leaves_the_rest_untouched(runtime):
     canary["cell"] = 0xDEADBEEF
     canary["position"] = 7.0
     pool.fill(canary)
-    sim.mc_polygonize_append(pool, capacity)
+    sim.polygonize_append(pool, capacity)
     assert pool.count() == capacity, "the counter clamps at capacity"
     assert pool.refused() == needed - capacity, "every triangle that did not fit is counted"
     items = pool.items.get()
@@ -636,7 +636,7 @@ def test_geometry_shader_emits_the_kernels_triangles(runtime, gl):
     view = create_view(scene, gl, sim)
     view.shadows, view.show_floor = False, False
     camera = view.png_camera()
-    view.field_source = 1  # corners from mc_field's texture: the very same cases as the OpenCL path
+    view.field_source = 1  # corners from SampleField's texture: the very same cases as the OpenCL path
     texture_image = _render(view, camera)
     assert view.gs_triangles == sim.pool.count() > 0
     view.field_source = 0  # the book's GS: Sample() evaluated in GLSL

@@ -1,4 +1,4 @@
-// grass.h: the parameter block of Grass.shader (vol.1 ch.6, docs/chapters/06-grass.md), read by grass_expand.
+// grass.h: the parameter block of Grass.shader (vol.1 ch.6, docs/chapters/06-grass.md), read by GrassExpand.
 // The book's material properties in the order Grass.shader declares them: twelve floats, time, the wind time scale,
 // two pads, then the two colours. Every field is 4-byte aligned except the float4s, which sit at offsets 64 and 80:
 // 96 bytes, no hidden padding. numpy mirror: ugpcl.scenes.grass.GRASS_PARAMS_DTYPE (a test compares the sizes on the device).

@@ -4,7 +4,7 @@ The chapter has no compute shader. Its two samples are geometry shaders, ported 
 (``grass_pyramid.*``: every triangle of a Quad becomes a triangular pyramid; ``grass.*``: every triangle of a
 field of Planes becomes one 7-vertex grass blade shaped by three noise maps and swayed by the wind). The view draws
 with those shaders. For headless runs and tests the geometry stage is re-done in OpenCL (``clkernels/grass.cl``):
-``grass_expand`` / ``pyramid_expand`` write every emitted vertex at a fixed slot, in world space; the book's
+``GrassExpand`` / ``PyramidExpand`` write every emitted vertex at a fixed slot, in world space; the book's
 vertex stage (three ``tex2Dlod`` lookups per vertex) runs once on the host in ``reset`` (the maps and UVs never
 change). ``backend=numpy`` runs the same geometry stage in numpy instead. Each step advances the shader's time by
 dt and expands again (one step = one rendered frame of the book).
@@ -111,7 +111,7 @@ class Params(BaseParams):
     start_time: float = param(0.0, -1e6, 1e6, live=True)
     """Shader time at step 0, seconds (Unity's Time.time); each step adds dt (command line: --set start_time=T)."""
     backend: str = param("opencl", choices=("opencl", "numpy"))
-    """Who runs the geometry stage headless: the grass_expand kernel or the numpy port."""
+    """Who runs the geometry stage headless: the GrassExpand kernel or the numpy port."""
 
     @property
     def blades(self) -> int:
@@ -135,7 +135,7 @@ class Params(BaseParams):
 
 
 class Simulation(BaseSimulation):
-    """A field of planes whose triangles grow one blade each: grass_expand every step."""
+    """A field of planes whose triangles grow one blade each: GrassExpand every step."""
 
     Params = Params
     history = ("blade_pos",)
@@ -185,7 +185,7 @@ class Simulation(BaseSimulation):
             self.result = geo.expand_grass(self.mesh, self.samples, self.models, p, self.shader_time)
             return
         self.d_params.set(p.block(self.shader_time))
-        self.program.kernel("grass_expand")(
+        self.program.kernel("GrassExpand")(
             (self.blades,),
             None,
             self.d_tri.data,
@@ -269,7 +269,7 @@ class PyramidParams(BaseParams):
     bottom_color: tuple[float, float, float, float] = param((0.0, 0.0, 1.0, 1.0), 0.0, 1.0, live=True)
     """Base colour, rgba (book: _BottomColor in Material.mat; shader default red)."""
     backend: str = param("opencl", choices=("opencl", "numpy"), live=True)
-    """Who runs the geometry stage headless: the pyramid_expand kernel or the numpy port."""
+    """Who runs the geometry stage headless: the PyramidExpand kernel or the numpy port."""
 
 
 class PyramidSimulation(BaseSimulation):
@@ -304,7 +304,7 @@ class PyramidSimulation(BaseSimulation):
         if p.backend == "numpy":
             self.result = geo.expand_pyramid(self.mesh, self.model, p.height, p.top_color, p.bottom_color)
             return
-        self.program.kernel("pyramid_expand")(
+        self.program.kernel("PyramidExpand")(
             (self.triangles,),
             None,
             self.d_tri.data,
@@ -354,7 +354,7 @@ class PyramidSimulation(BaseSimulation):
 
 
 def bench(runtime, sizes=None) -> list[dict]:
-    """ms per grass_expand (the geometry stage of one frame) and blades/s, for one plane subdivided to about
+    """ms per GrassExpand (the geometry stage of one frame) and blades/s, for one plane subdivided to about
     `size` blades (the book's field: 20,000 blades), with the numpy port for comparison up to 200,000 blades."""
     sizes = sizes or ([20000, 2000000] if runtime.is_gpu else [20000, 200000])
     rows = []

@@ -6,11 +6,11 @@ scalar field on an N^3 grid; every cell classifies its 8 corners against the thr
 from the marching-cubes tables (``ugpcl.geometry.marching_cubes_tables``: Bourke's numbering, rows derived there).
 
 Kernel order per frame (``step`` advances the field's time first when ``animate``):
-``mc_field`` (the book's Sample at every grid point), then either ``mc_polygonize_append`` (``path=append``: each
+``SampleField`` (the book's Sample at every grid point), then either ``PolygonizeAppend`` (``path=append``: each
 cell appends its triangles to a ``Pool`` with ``atomic_inc``; an overflow is counted, the pool grows and the kernel
-runs again) or ``mc_classify`` -> ``scan_blocks``/``add_block_offsets`` -> ``mc_generate`` (``path=scan``: triangles
-written in cell order). ``state()`` sorts the append path's triangles by cell (stable), so both paths write the
-same arrays. The viewer's geometry-shader path (viewer/views/marching_cubes.py) is the book's own.
+runs again) or ``ClassifyCells`` -> ``ScanBlocks``/``AddBlockOffsets`` -> ``GenerateTriangles`` (``path=scan``:
+triangles written in cell order). ``state()`` sorts the append path's triangles by cell (stable), so both paths
+write the same arrays. The viewer's geometry-shader path (viewer/views/marching_cubes.py) is the book's own.
 
 What differs from the book: the GS evaluates the field 8 times per cell, twice per frame (lit and shadow pass);
 here it is evaluated once per grid point. The book's 65535-point meshes wrap around and process z-layers twice
@@ -43,7 +43,7 @@ SHAPES = {"spheres-book": 0, "spheres-repo": 0, "kaiware": 1}
 NORMALS = {"analytic": 0, "grid": 1}
 """Normal mode -> NORMALS_* of marching_cubes.cl."""
 SCAN_BLOCK_SIZE = 256
-"""Work-group size of scan_blocks (values scanned per group in __local memory)."""
+"""Work-group size of ScanBlocks (values scanned per group in __local memory)."""
 PULSE_RATE = 8.0
 """Angular frequency of the spheres' pulsing, rad/s (book: sin(_Time.y * 8.0 + i * 23.365)): period 2 pi / 8 s."""
 PULSE_PHASE = 23.365
@@ -101,7 +101,7 @@ def field_constants(shape: str, t: float) -> tuple[tuple[float, float, float], f
 
 
 class Simulation(BaseSimulation):
-    """One polygonised frame per step: mc_field, then the append or the two-pass path."""
+    """One polygonised frame per step: SampleField, then the append or the two-pass path."""
 
     Params = Params
     history = ()
@@ -133,23 +133,23 @@ class Simulation(BaseSimulation):
         )
 
     def _cell_args(self) -> tuple:
-        """The leading arguments of both triangle writers (mc_polygonize_append, mc_generate)."""
+        """The leading arguments of both triangle writers (PolygonizeAppend, GenerateTriangles)."""
         p = self.params
         return (self.field.data, np.float32(p.threshold), np.int32(NORMALS[p.normals]), *self._field_args())
 
     # {{{ kernels, in the book's order
 
-    def mc_field(self) -> None:
-        """mc_field: the book's Sample at all (N+1)^3 grid points at the current field time."""
+    def sample_field(self) -> None:
+        """SampleField: the book's Sample at all (N+1)^3 grid points at the current field time."""
         points = (self.n + 1) ** 3
-        self.program.kernel("mc_field")((points,), None, self.field.data, *self._field_args())
+        self.program.kernel("SampleField")((points,), None, self.field.data, *self._field_args())
 
-    def mc_polygonize_append(self, pool: Pool | None = None, capacity: int | None = None) -> None:
-        """mc_polygonize_append: every cell appends its triangles to ``pool`` (default: the scene's, emptied first).
+    def polygonize_append(self, pool: Pool | None = None, capacity: int | None = None) -> None:
+        """PolygonizeAppend: every cell appends its triangles to ``pool`` (default: the scene's, emptied first).
         ``capacity`` below the pool's size leaves the slots after it untouched (the overflow test's canary)."""
         pool = pool or self.pool
         pool.set_count(0)
-        self.program.kernel("mc_polygonize_append")(
+        self.program.kernel("PolygonizeAppend")(
             (self.cells,),
             None,
             *self._cell_args(),
@@ -158,12 +158,12 @@ class Simulation(BaseSimulation):
             np.int32(pool.capacity if capacity is None else capacity),
         )
 
-    def mc_classify(self) -> None:
-        """mc_classify: triangles per cell into ``cell_ntri``."""
+    def classify_cells(self) -> None:
+        """ClassifyCells: triangles per cell into ``cell_ntri``."""
         if self.cell_ntri is None:
             self.cell_ntri = self.runtime.zeros(self.cells, np.uint32)
             self.cell_off = self.runtime.zeros(self.cells, np.uint32)
-        self.program.kernel("mc_classify")(
+        self.program.kernel("ClassifyCells")(
             (self.cells,),
             None,
             self.field.data,
@@ -173,13 +173,13 @@ class Simulation(BaseSimulation):
         )
 
     def scan(self, values, out, n: int) -> int:
-        """scan_blocks + add_block_offsets: exclusive prefix sum of n uint32 ``values`` into ``out``; returns the total.
+        """ScanBlocks + AddBlockOffsets: exclusive prefix sum of n uint32 ``values`` into ``out``; returns the total.
         Each level scans SCAN_BLOCK_SIZE values per work-group; the block totals are scanned the same way."""
         groups = -(-n // SCAN_BLOCK_SIZE)
         if n not in self.scan_levels:  # block sums and their scan, kept per level
             self.scan_levels[n] = (self.runtime.empty(groups, np.uint32), self.runtime.empty(groups, np.uint32))
         sums, offsets = self.scan_levels[n]
-        self.program.kernel("scan_blocks")(
+        self.program.kernel("ScanBlocks")(
             (groups * SCAN_BLOCK_SIZE,),
             (SCAN_BLOCK_SIZE,),
             values.data,
@@ -190,14 +190,14 @@ class Simulation(BaseSimulation):
         if groups == 1:
             return int(sums.get()[0])
         total = self.scan(sums, offsets, groups)
-        self.program.kernel("add_block_offsets")(
+        self.program.kernel("AddBlockOffsets")(
             (round_up(n, SCAN_BLOCK_SIZE),), None, out.data, offsets.data, np.int32(n)
         )
         return total
 
-    def mc_generate(self) -> None:
-        """mc_generate: every cell writes its triangles at cell_off[cell] (needs mc_classify and scan)."""
-        self.program.kernel("mc_generate")(
+    def generate_triangles(self) -> None:
+        """GenerateTriangles: every cell writes its triangles at cell_off[cell] (needs ClassifyCells and scan)."""
+        self.program.kernel("GenerateTriangles")(
             (self.cells,),
             None,
             *self._cell_args(),
@@ -218,26 +218,26 @@ class Simulation(BaseSimulation):
         """The chosen OpenCL path on the current field; grows the pool when the frame does not fit."""
         self.overflowed = False
         if self.params.path == "append":
-            self.mc_polygonize_append()
+            self.polygonize_append()
             count, refused = self.pool.counts()
             if refused:  # the counter clamped at capacity: count + refused triangles were wanted
                 self._grow(count + refused)
-                self.mc_polygonize_append()
+                self.polygonize_append()
                 count, refused = self.pool.counts()
                 assert refused == 0
         else:
-            self.mc_classify()
+            self.classify_cells()
             count = self.scan(self.cell_ntri, self.cell_off, self.cells)
             if count > self.pool.capacity:
                 self._grow(count)
-            self.mc_generate()
+            self.generate_triangles()
             self.pool.set_count(count)
         self.frame_times.append(self.field_time)
         self.frame_counts.append(count)
 
     def remesh(self) -> None:
         """Field and mesh at the current field time (after a parameter change, without advancing time)."""
-        self.mc_field()
+        self.sample_field()
         self.polygonize()
 
     def step(self, dt: float | None = None) -> None:
@@ -303,7 +303,7 @@ class Simulation(BaseSimulation):
 
 
 def bench(runtime, sizes=None) -> list[dict]:
-    """Marching cubes of the three spheres (repository radii, t = 0.3) on N^3 cells: ms for mc_field ((N+1)^3 field
+    """Marching cubes of the three spheres (repository radii, t = 0.3) on N^3 cells: ms for SampleField ((N+1)^3 field
     evaluations) and for each OpenCL path on that field, voxels (cells) per second of the meshing alone and of field +
     mesh, against scikit-image's marching_cubes (lorensen) meshing the same float32 field in the same run (where
     scikit-image, a test dependency, is installed)."""
@@ -317,7 +317,7 @@ def bench(runtime, sizes=None) -> list[dict]:
     for n in sizes:
         sim = Simulation(runtime, Params(segment_num=n, shape="spheres-repo", time=0.3, animate=False), seed=0)
         queue, cells = runtime.queue, n**3
-        field_s = seconds_per_call(sim.mc_field, queue, max_calls=50)
+        field_s = seconds_per_call(sim.sample_field, queue, max_calls=50)
         for path in ("append", "scan"):
             sim.update(path=path)
             mesh_s = seconds_per_call(sim.polygonize, queue, max_calls=50)

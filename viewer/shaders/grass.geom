@@ -2,7 +2,7 @@
 // Grass.shader (vol.1 ch.6), geometry part geom(): every triangle becomes one blade, a strip of 7 vertices
 // (5 triangles) in three sections whose heights come from the height map, whose side (+/- the edge p2 - p0) comes
 // from the rotation map and whose joints sway along object +X with the wind map (fig. 6.5). Same arithmetic as
-// grass_expand in clkernels/grass.cl; g_world is there for transform feedback (tests compare the two).
+// GrassExpand in clkernels/grass.cl; g_world is there for transform feedback (tests compare the two).
 layout(triangles) in;
 layout(triangle_strip, max_vertices = 7) out;  // [maxvertexcount(7)]
 

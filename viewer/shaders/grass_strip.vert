@@ -1,5 +1,5 @@
 #version 430 core
-// Not a book shader: draws the blades grass_expand (clkernels/grass.cl) wrote, already in world space, as the
+// Not a book shader: draws the blades GrassExpand (clkernels/grass.cl) wrote, already in world space, as the
 // triangle list blade_tris; with grass.frag it gives the picture the geometry shader gives (the view's Tab key).
 in vec3 in_position;
 in vec4 in_color;

@@ -4,7 +4,7 @@
 // every cut edge by linear interpolation, takes its normal from the field's gradient (getNormal) and emits up to
 // 5 triangles from triangleConnectionTable. The same per-cell arithmetic as clkernels/marching_cubes.cl.
 // field_source 0 (the book): Sample() evaluated here, analytically; 1: corners fetched from the 3D texture the
-// mc_field kernel wrote, so the triangles are exactly the OpenCL path's.
+// SampleField kernel wrote, so the triangles are exactly the OpenCL path's.
 layout(points) in;
 layout(triangle_strip, max_vertices = 15) out;  // [maxvertexcount(15)]: 5 triangles
 

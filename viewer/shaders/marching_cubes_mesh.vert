@@ -1,5 +1,5 @@
 #version 430 core
-// The OpenCL path's triangles (mc_polygonize_append / mc_generate) drawn as a plain mesh, with the transform of
+// The OpenCL path's triangles (PolygonizeAppend / GenerateTriangles) drawn as a plain mesh, with the transform of
 // the book's geom_light (_Matrix, then the camera); also the floor plane. Fragment: marching_cubes.frag.
 in vec3 in_position;  // object space
 in vec3 in_normal;

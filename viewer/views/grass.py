@@ -1,6 +1,6 @@
 """Geometry-shader views (vol.1 ch.6): the grass field and the pyramid quad, drawn through their GLSL geometry
 shaders (viewer/shaders/grass.*, grass_pyramid.* with grass.frag). Tab switches to drawing what the OpenCL kernels
-emitted instead (grass_expand / pyramid_expand, copied through the host), which should look the same."""
+emitted instead (GrassExpand / PyramidExpand, copied through the host), which should look the same."""
 
 from __future__ import annotations
 

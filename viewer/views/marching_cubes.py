@@ -66,7 +66,7 @@ class View(BaseView):
         Key("a", "animation on/off (field time)", "toggle_animation"),
         Key("f", "wireframe on/off", "toggle_wireframe"),
         Key("tab", "draw path: geometry shader (book) / OpenCL kernel mesh", "toggle_path"),
-        Key("g", "geometry shader field: analytic Sample (book) / 3D texture from mc_field", "toggle_field_source"),
+        Key("g", "geometry shader field: analytic Sample (book) / 3D texture from SampleField", "toggle_field_source"),
         Key("m", "normals: analytic resampling / grid differences", "toggle_normals"),
         Key("p", "OpenCL path: atomic append / classify + scan + generate", "toggle_kernel_path"),
         Key("1", "shape: three spheres, book radii", "shape_book"),
