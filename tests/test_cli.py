@@ -89,6 +89,8 @@ def test_every_k_stacks_a_history(capsys, tmp_path):
         (["run", "boids", "--out", "noext"], "--out must end in .npz, got 'noext'"),
         (["run", "boids", "--png", "x.jpg"], "--png must end in .png"),
         (["run", "boids", "--png-size", "10x10"], "--png-size must be WxH with 16..8192 each"),
+        (["run", "boids", "--set", "max_speed=1e39"], "max_speed must be in (0.0, inf] and within float32"),
+        (["run", "cloth", "--set", "gravity=1e39,1,1"], "gravity must be within float32 (|x| <= 3.4e38)"),
         (
             ["run", "boids", "--seed", str(2**64)],
             "--seed must be in [0, 9223372036854775807], got 18446744073709551616",
@@ -287,3 +289,16 @@ def test_sigkill_while_the_npz_is_written_keeps_the_previous_file(tmp_path):
     proc.kill()
     proc.wait(timeout=60)
     assert out.read_bytes() == b"the previous result", "SIGKILL during the write damaged the previous file"
+
+
+def test_divergence_is_one_line_exit_1_and_writes_only_when_asked(capsys, tmp_path):
+    out = tmp_path / "c.npz"
+    out.write_bytes(b"the previous result")
+    argv = ["run", "cloth", "--steps", "5", "--set", "res=16,16", "stiffness=1e20", "--out", str(out)]
+    code, _, err = run(capsys, *argv)
+    assert code == 1 and err.strip().splitlines()[-1].startswith("ugpcl: error: diverged between steps 1 and 5: pos")
+    assert "parameters set: res=16,16 stiffness=1e20" in err and out.read_bytes() == b"the previous result"
+    code, _, err = run(capsys, *argv, "--keep-diverged")
+    assert code == 1 and "diverged between" in err
+    data = np.load(out)
+    assert bool(data["diverged"]) and not np.isfinite(data["pos"]).all()

@@ -33,6 +33,8 @@ from .scenes import get, modules, scenes
 USAGE_ERROR, RUNTIME_ERROR, INTERRUPTED, TERMINATED = 2, 1, 130, 143
 MAX_SEED = 2**63 - 1
 """Largest --seed: the .npz stores it as int64."""
+CHECK_SECONDS = 2.0
+"""How often a run reads its state back to look for NaN/inf (also at every --every snapshot and at the end)."""
 STEPS_IN_FLIGHT = 4
 """Steps ``ugpcl run`` lets the device queue hold before it waits for the oldest: the progress bar counts
 finished steps, and the host never runs far ahead of the device."""
@@ -40,6 +42,20 @@ finished steps, and the host never runs far ahead of the device."""
 
 class UsageError(Exception):
     """Bad input from the command line, found before the run starts: printed as one line, exit 2."""
+
+
+class Diverged(RuntimeError):
+    """The simulation produced NaN or inf: one line naming the arrays, the steps and the parameters that were set."""
+
+    def __init__(self, first: int, last: int, arrays: list[str], state: dict):
+        steps = f"step {last}" if first == last else f"steps {first} and {last}"
+        super().__init__(f"diverged between {steps}: {', '.join(arrays)} hold NaN or inf")
+        self.state = state
+
+
+def non_finite(state: dict) -> list[str]:
+    """Names of the floating-point arrays of ``state`` that hold NaN or inf."""
+    return [k for k, v in state.items() if np.issubdtype(np.asarray(v).dtype, np.floating) and not np.isfinite(v).all()]
 
 
 class Terminated(Exception):
@@ -200,21 +216,31 @@ def run_steps(sim: Simulation, steps: int, dt: float, every: int | None) -> dict
     advances then. At most STEPS_IN_FLIGHT steps are queued ahead of the device."""
     queue = sim.runtime.queue
     frames, times = [], []
+    checked = {"step": 0, "at": time.monotonic()}  # the last step whose state was finite, and when it was read
 
-    def snapshot():
-        state = sim.state()
+    def check(state: dict, step: int) -> dict:
+        bad = non_finite(state)
+        if bad:
+            raise Diverged(checked["step"] + 1, step, bad, state)
+        checked.update(step=step, at=time.monotonic())
+        return state
+
+    def snapshot(step: int):
+        state = check(sim.state(), step)
         frames.append({k: state[k] for k in sim.history})
         times.append(sim.time)
 
     if every:
-        snapshot()
+        snapshot(0)
     in_flight: deque[cl.Event] = deque()
     complete = cl.command_execution_status.COMPLETE
     with _progress(steps) as progress:
         for i in range(1, steps + 1):
             sim.step(dt)
             if every and i % every == 0:
-                snapshot()
+                snapshot(i)
+            elif time.monotonic() - checked["at"] > CHECK_SECONDS:
+                check(sim.state(), i)
             in_flight.append(cl.enqueue_marker(queue))
             queue.flush()
             while in_flight and (len(in_flight) > STEPS_IN_FLIGHT or in_flight[0].command_execution_status == complete):
@@ -223,7 +249,7 @@ def run_steps(sim: Simulation, steps: int, dt: float, every: int | None) -> dict
         while in_flight:
             in_flight.popleft().wait()
             progress.update()
-    out = dict(sim.state())
+    out = check(dict(sim.state()), steps)
     if every:
         for key in sim.history:
             out[f"{key}_history"] = np.stack([f[key] for f in frames])
@@ -295,7 +321,15 @@ def cmd_run(args) -> int:
     print(f"ugpcl: {scene.name} on {runtime.label}", file=sys.stderr)
     sim = scene.simulation(runtime, params, args.seed)
     start = time.perf_counter()
-    state = run_steps(sim, args.steps, dt, args.every)
+    diverged = None
+    try:
+        state = run_steps(sim, args.steps, dt, args.every)
+    except Diverged as err:
+        sets = " ".join(args.set or []) or "none (the scene's defaults)"
+        diverged = f"{err}; parameters set: {sets}"
+        if not args.keep_diverged:
+            raise RuntimeError(f"{diverged}; nothing was written (--keep-diverged writes it anyway)") from None
+        state = {**err.state, "diverged": np.bool_(True)}
     runtime.finish()
     seconds = time.perf_counter() - start
     write_npz(
@@ -311,6 +345,9 @@ def cmd_run(args) -> int:
         },
     )
     print(f"wrote {out} ({args.steps} steps in {seconds:.2f} s): {', '.join(sorted(state))}")
+    if diverged:  # the state is written as asked; no picture or mesh of NaN
+        print(f"ugpcl: error: {diverged}", file=sys.stderr)
+        return RUNTIME_ERROR
     for key, value in sim.stats().items():
         print(f"  {key}: {value}")
     if mesh:
@@ -419,6 +456,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--png", default=None, help="also render the final state to this PNG (offscreen, EGL)")
     p.add_argument("--png-size", default="800x600", help="PNG size WxH")
     p.add_argument("--mesh", default=None, help="export the scene's geometry (.obj/.ply) where it makes one")
+    p.add_argument(
+        "--keep-diverged",
+        action="store_true",
+        help="when the state turns NaN/inf, still write it (with diverged=True) before exiting 1",
+    )
 
     p = command("bench", "time scenes and print throughput tables", cmd_bench, [device])
     p.add_argument("scene", nargs="*", help="'launch' or chapter stems (none: all)")

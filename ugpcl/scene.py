@@ -23,6 +23,9 @@ import numpy as np
 
 # {{{ parameters
 
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+"""Largest float parameter: every kernel argument is float32."""
+
 
 def param(default, lo=None, hi=None, *, lo_open: bool = False, choices=None, live: bool = False):
     """A Params field with its book default and allowed range ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``) or
@@ -93,6 +96,11 @@ class Params:
     @staticmethod
     def _check_range(f: dataclasses.Field, value) -> None:
         meta = f.metadata
+        for v in value if isinstance(value, tuple) else (value,):
+            if isinstance(v, float) and abs(v) > FLOAT32_MAX:  # the kernels compute in float32: 1e39 is inf there
+                allowed = _describe_range(meta) if meta else "any"
+                allowed = "" if allowed == "any" else f"{allowed} and "
+                raise ValueError(f"{f.name} must be {allowed}within float32 (|x| <= 3.4e38), got {value!r}")
         if not meta:
             return
         for v in value if isinstance(value, tuple) else (value,):
