@@ -5,6 +5,35 @@ from __future__ import annotations
 import numpy as np
 
 
+def run_cli(capsys, *argv) -> tuple[int, str]:
+    """``ugpcl ARGV`` in this process: (exit code, stdout + stderr)."""
+    from ugpcl.cli import main
+
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out + err
+
+
+def render_view(gl, scene_name: str, sim, size=(160, 120), **view_state):
+    """Draw ``sim`` through the view of ``scene_name`` offscreen, the view's attributes set from ``view_state``:
+    (pixels, primitives the GL query counted, view, camera)."""
+    from ugpcl.viewer.offscreen import frame
+    from ugpcl.viewer.views import create_view
+
+    from ugpcl.scenes import get
+
+    view = create_view(get(scene_name), gl, sim)
+    for key, value in view_state.items():
+        setattr(view, key, value)
+    camera = view.png_camera()
+    camera.aspect = size[0] / size[1]
+    view.upload()
+    query = gl.query(primitives=True)
+    with query:
+        pixels = frame(size).render(view, camera)
+    return pixels, query.primitives, view, camera
+
+
 def foreground(pixels: np.ndarray, background, tolerance: int = 12) -> np.ndarray:
     """Boolean mask of pixels that differ from the background colour (floats in [0, 1]) by more than tolerance."""
     bg = np.round(np.asarray(background) * 255).astype(int)

@@ -9,10 +9,9 @@ import json
 
 import numpy as np
 import pytest
-from helpers import foreground
+from helpers import foreground, render_view, run_cli
 
 from ugpcl.buffers import device_sizeof
-from ugpcl.cli import main
 from ugpcl.geometry import space_colonization_ref as ref
 from ugpcl.scenes import get
 from ugpcl.scenes.space_colonization import (
@@ -455,15 +454,9 @@ def test_defaults_make_no_zero_length_edge(runtime):
 # {{{ headless CLI
 
 
-def run(capsys, *argv) -> tuple[int, str]:
-    code = main(list(argv))
-    out, err = capsys.readouterr()
-    return code, out + err
-
-
 def test_cli_writes_the_chapter_arrays_and_a_mesh(capsys, tmp_path):
     out, mesh = tmp_path / "sc.npz", tmp_path / "tree.obj"
-    code, text = run(
+    code, text = run_cli(
         capsys,
         "run",
         "space_colonization",
@@ -506,7 +499,7 @@ def test_cli_writes_the_chapter_arrays_and_a_mesh(capsys, tmp_path):
 
 def test_cli_line_mesh(capsys, tmp_path):
     mesh = tmp_path / "lines.obj"
-    code, text = run(
+    code, text = run_cli(
         capsys,
         "run",
         "space_colonization",
@@ -549,22 +542,6 @@ def test_bad_parameters_name_the_field(setting, message):
 # {{{ views
 
 
-def render(runtime, gl, scene_name: str, sim, size=(160, 120), **view_state):
-    from ugpcl.viewer.offscreen import frame
-    from ugpcl.viewer.views import create_view
-
-    view = create_view(get(scene_name), gl, sim)
-    for key, value in view_state.items():
-        setattr(view, key, value)
-    camera = view.png_camera()
-    camera.aspect = size[0] / size[1]
-    view.upload()
-    query = gl.query(primitives=True)
-    with query:
-        pixels = frame(size).render(view, camera)
-    return pixels, query.primitives, view, camera
-
-
 @pytest.mark.gl
 def test_line_and_tube_views_draw_the_tree_inside_the_sphere(runtime, gl):
     sim = get("space_colonization").create(runtime, 0, side=16)
@@ -572,7 +549,7 @@ def test_line_and_tube_views_draw_the_tree_inside_the_sphere(runtime, gl):
         sim.step()
     edges = sim.live_edges
     w, h = 400, 300  # big enough for the tubes (0.033 world units) to be wider than a line
-    lines, primitives, view, camera = render(runtime, gl, "space_colonization", sim, (w, h))
+    lines, primitives, view, camera = render_view(gl, "space_colonization", sim, (w, h))
     assert primitives == edges, "one line per live edge"
     bright = lines.min(axis=-1) > 120
     # the sphere holding every node (cloud radius + jitter + one step, drawn at scale 6) seen by the camera
@@ -585,7 +562,7 @@ def test_line_and_tube_views_draw_the_tree_inside_the_sphere(runtime, gl):
     outside = np.hypot(xx - centre[0], (h - 1 - yy) - centre[1]) > radius + 2
     assert bright.sum() > 2000 and not bright[outside].any()
     sim.update(render="tubes")
-    tubes, primitives, _, _ = render(runtime, gl, "space_colonization", sim, (w, h))
+    tubes, primitives, _, _ = render_view(gl, "space_colonization", sim, (w, h))
     a, b = sim.grown_segments()
     grown = int((np.sum(((b - a) * p.object_scale) ** 2, axis=1) >= 1e-14).sum())  # the shader's zero-length test
     assert primitives == 70 * grown, "a 5-sided prism (10 triangles) and a 6-row cap (60) per growing edge"

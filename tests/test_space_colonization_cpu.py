@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import render_view, run_cli
 
-from ugpcl.cli import main
 from ugpcl.geometry import space_colonization_ref as ref
 from ugpcl.scenes import get
 from ugpcl.scenes.space_colonization_cpu import Params, Simulation
@@ -78,15 +78,9 @@ def test_blog_without_the_guard_is_ended_by_the_stall_detector(runtime):
 # {{{ headless CLI
 
 
-def run(capsys, *argv) -> tuple[int, str]:
-    code = main(list(argv))
-    out, err = capsys.readouterr()
-    return code, out + err
-
-
 def test_cli_writes_the_chapter_arrays(capsys, tmp_path):
     out = tmp_path / "cpu.npz"
-    code, text = run(
+    code, text = run_cli(
         capsys, "run", "space_colonization_cpu", "--steps", "400", "--set", "repeat_guard=true", "--out", str(out)
     )
     assert code == 0, text
@@ -101,25 +95,12 @@ def test_cli_writes_the_chapter_arrays(capsys, tmp_path):
 # {{{ views
 
 
-def render(runtime, gl, scene_name: str, sim, size=(160, 120), **view_state):
-    from ugpcl.viewer.offscreen import frame
-    from ugpcl.viewer.views import create_view
-
-    view = create_view(get(scene_name), gl, sim)
-    for key, value in view_state.items():
-        setattr(view, key, value)
-    camera = view.png_camera()
-    camera.aspect = size[0] / size[1]
-    view.upload()
-    return frame(size).render(view, camera)
-
-
 @pytest.mark.gl
 def test_cpu_view_draws_brown_branches(runtime, gl):
     sim = get("space_colonization_cpu").create(runtime, 0)
     for _ in range(60):
         sim.step()
-    pixels = render(runtime, gl, "space_colonization_cpu", sim, rotate=False)
+    pixels = render_view(gl, "space_colonization_cpu", sim, rotate=False)[0]
     brown = (pixels[..., 0] > 100) & (pixels[..., 1] > 30) & (pixels[..., 1] < pixels[..., 0]) & (pixels[..., 2] < 40)
     assert brown.sum() > 300
     ys, xs = np.nonzero(brown)

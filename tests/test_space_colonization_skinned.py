@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import run_cli
 
 from ugpcl.buffers import device_sizeof
-from ugpcl.cli import main
 from ugpcl.geometry import skinned_figure
 from ugpcl.scenes import get
 from ugpcl.scenes.space_colonization_skinned import (
@@ -155,15 +155,9 @@ def test_growth_does_not_depend_on_the_animation(runtime):
 # {{{ headless CLI
 
 
-def run(capsys, *argv) -> tuple[int, str]:
-    code = main(list(argv))
-    out, err = capsys.readouterr()
-    return code, out + err
-
-
 def test_cli_skinned_writes_the_chapter_arrays(capsys, tmp_path):
     out, mesh = tmp_path / "sk.npz", tmp_path / "sk.obj"
-    code, text = run(
+    code, text = run_cli(
         capsys,
         "run",
         "space_colonization_skinned",
