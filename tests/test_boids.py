@@ -286,7 +286,7 @@ def test_initial_state_is_the_books(runtime):
     "overrides, message",
     [
         ({"max_object_num": 0}, "max_object_num must be in \\[1, 4194304\\], got 0"),
-        ({"separate_neighborhood_radius": 0.0}, "separate_neighborhood_radius must be in \\(0.0, inf\\]"),
+        ({"separate_neighborhood_radius": 0.0}, "separate_neighborhood_radius must be in \\(0.0, 10000.0\\], got 0.0"),
         ({"max_speed": float("nan")}, "max_speed must be a finite number"),
         ({"simulation_block_size": 100}, "simulation_block_size must be one of"),
         ({"variant": "fast"}, "variant must be one of tiled\\|naive\\|grid"),

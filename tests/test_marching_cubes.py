@@ -550,7 +550,7 @@ def test_steps_advance_the_field_time_unless_still(runtime):
         ({"shape": "torus"}, "shape must be one of spheres-book\\|spheres-repo\\|kaiware"),
         ({"normals": "flat"}, "normals must be one of analytic\\|grid"),
         ({"path": "gs"}, "path must be one of append\\|scan"),
-        ({"time": -1.0}, "time must be in \\[0.0, inf\\]"),
+        ({"time": -1.0}, "time must be in \\[0.0, 1000000.0\\], got -1.0"),
         ({"triangle_capacity": -5}, "triangle_capacity must be in"),
         ({"diffuse_color": (0.5, 2.0, 0.0)}, "diffuse_color must be in \\[0.0, 1.0\\]"),
     ],

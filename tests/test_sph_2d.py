@@ -411,8 +411,8 @@ def test_scripted_mouse_holds_then_releases(runtime):
     "overrides, message",
     [
         ({"particle_num": 1}, "particle_num must be in \\[2, 1048576\\], got 1"),
-        ({"smoothlen": 0.0}, "smoothlen must be in \\(0.0, inf\\]"),
-        ({"rest_density": -1.0}, "rest_density must be in \\(0.0, inf\\]"),
+        ({"smoothlen": 0.0}, "smoothlen must be in \\[0.0001, 10000.0\\], got 0.0"),
+        ({"rest_density": -1.0}, "rest_density must be in \\[0.001, 1000000.0\\], got -1.0"),
         ({"max_allowable_timestep": 1 / 60}, "max_allowable_timestep must be in \\(0.0, 0.00833"),
         ({"search": "octree"}, "search must be one of all_pairs\\|grid"),
         ({"variant": "new"}, "variant must be one of fixed\\|book"),

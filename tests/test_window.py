@@ -123,3 +123,33 @@ def test_every_scene_opens_and_takes_every_key(display, tmp_path, name):
     assert len(shots) >= 2, f"the S key wrote {len(shots)} screenshot(s), not 2; stderr:\n{err}"
     pixels = np.asarray(Image.open(shots[-1]).convert("RGB")).reshape(-1, 3)
     assert len(np.unique(pixels, axis=0)) > 8, "the screenshot after the keys is a flat colour"
+
+
+@pytest.mark.gl
+def test_view_pauses_with_a_message_when_the_state_diverges(display, tmp_path):
+    """cloth at stiffness=1e20 turns NaN in a few steps: the window stops stepping, draws no NaN geometry, shows
+    the message in the overlay and prints it once."""
+    env = {**os.environ, "DISPLAY": display}
+    viewer = Path(sys.executable).parent / "ugpcl-view"
+    argv = [str(viewer), "cloth", "--set", "res=16,16", "stiffness=1e20", "--size", "320x240"]
+    app = subprocess.Popen(argv, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        window = xdotool(env, "search", "--sync", "--onlyvisible", "--name", "ugpcl").splitlines()[0]
+        xdotool(env, "windowfocus", "--sync", window)
+        time.sleep(4.0)  # the watch reads the state back every CHECK_SECONDS (2 s)
+        xdotool(env, "key", "s")
+        deadline = time.time() + 30
+        while time.time() < deadline and not list((tmp_path / "out").glob("cloth-*.png")):
+            time.sleep(0.2)
+        xdotool(env, "key", "Escape")
+        assert app.wait(timeout=30) == 0
+    finally:
+        if app.poll() is None:
+            app.kill()
+        _, err = app.communicate()
+    lines = [line for line in err.splitlines() if "diverged" in line]
+    assert len(lines) == 1 and "pos" in lines[0] and "stiffness=1e+20" in lines[0], err
+    shot = np.asarray(Image.open(next((tmp_path / "out").glob("cloth-*.png"))).convert("RGB"))
+    drawn = foreground(shot, view_class(scenes()["cloth"]).background)
+    assert drawn[:120, :200].mean() > 0.5, "no message panel at the top left"
+    assert drawn[170:].mean() < 0.02, "something besides the message was drawn"

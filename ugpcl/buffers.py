@@ -95,3 +95,11 @@ def device_sizeof(runtime: Runtime, type_name: str, header: str) -> int:
     out = cla.zeros(runtime.queue, 1, np.int32)
     Kernel(runtime, cl.Kernel(program, "ugpcl_sizeof"), "ugpcl_sizeof")((1,), None, out.data)
     return int(out.get()[0])
+
+
+def put(array: cla.Array, value, name: str) -> None:
+    """Copy a saved array (``ugpcl run --resume``) onto the device array it came from, checking its shape."""
+    value = np.asarray(value)
+    if value.shape != array.shape:
+        raise ValueError(f"saved {name} has shape {value.shape}; this scene's parameters make {array.shape}")
+    array.set(np.ascontiguousarray(value, array.dtype))

@@ -10,6 +10,7 @@ file is written to a temporary name and renamed when complete).
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import shutil
 import signal
@@ -18,16 +19,17 @@ import textwrap
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 import pyopencl as cl
 
-from . import __version__
+from . import __version__, resources
 from .geometry.mesh_io import MESH_SUFFIXES
 from .runtime import BuildError, DeviceError, Runtime, all_devices
-from .scene import Scene, Simulation, check_dt
+from .scene import ParamError, Scene, Simulation, check_dt
 from .scenes import get, modules, scenes
 
 USAGE_ERROR, RUNTIME_ERROR, INTERRUPTED, TERMINATED = 2, 1, 130, 143
@@ -56,6 +58,26 @@ class Diverged(RuntimeError):
 def non_finite(state: dict) -> list[str]:
     """Names of the floating-point arrays of ``state`` that hold NaN or inf."""
     return [k for k, v in state.items() if np.issubdtype(np.asarray(v).dtype, np.floating) and not np.isfinite(v).all()]
+
+
+class Watch:
+    """Looks for NaN/inf in a simulation's state: ``check()`` reads it back (or takes one already read) and raises
+    Diverged naming the steps since the last finite check; ``due()`` says CHECK_SECONDS have passed since then.
+    ``ugpcl run`` and the viewer share it."""
+
+    def __init__(self, sim: Simulation):
+        self.sim, self.step, self.at = sim, sim.steps, time.monotonic()
+
+    def due(self) -> bool:
+        return time.monotonic() - self.at > CHECK_SECONDS
+
+    def check(self, state: dict | None = None) -> dict:
+        state = self.sim.state() if state is None else state
+        bad = non_finite(state)
+        if bad:
+            raise Diverged(self.step + 1, self.sim.steps, bad, state)
+        self.step, self.at = self.sim.steps, time.monotonic()
+        return state
 
 
 class Terminated(Exception):
@@ -172,7 +194,10 @@ def cmd_info(args) -> int:
 
 
 def cmd_params(args) -> int:
-    print(format_table(scene_named(args.scene).table()))
+    scene = scene_named(args.scene)
+    print(format_table(scene.table()))
+    for rule in scene.limits():
+        print(f"limit: {rule}")
     return 0
 
 
@@ -198,49 +223,87 @@ def parse_sets(scene: Scene, pairs: list[str]) -> dict:
     return out
 
 
-def _progress(total: int):
-    """A progress bar on stderr, shown only on a terminal (tqdm's ``disable=None``)."""
+class ProgressLines:
+    """Signs of life when stderr is not a terminal (a log file, CI, a batch job): one line every ``interval``
+    seconds, ``ugpcl: boids step 120/600 (20%), 31.2 steps/s, about 15 s left``. Same use as a tqdm bar."""
+
+    def __init__(self, label: str, total: int, interval: float):
+        self.label, self.total, self.interval = label, total, interval
+        self.done, self.start = 0, time.monotonic()
+        self.shown = self.start
+
+    def update(self, n: int = 1) -> None:
+        self.done += n
+        now = time.monotonic()
+        if now - self.shown >= self.interval and self.done < self.total:
+            self.shown = now
+            rate = self.done / (now - self.start)
+            left = (self.total - self.done) / rate if rate > 0 else float("inf")
+            print(
+                f"ugpcl: {self.label} step {self.done}/{self.total} ({100 * self.done // self.total}%), "
+                f"{rate:.3g} steps/s, about {left:.0f} s left",
+                file=sys.stderr,
+                flush=True,
+            )
+
+    def __enter__(self) -> ProgressLines:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        pass
+
+
+PROGRESS_LINE_SECONDS = 5.0
+"""How often a run whose stderr is not a terminal prints a progress line."""
+
+
+def _progress(label: str, total: int, quiet: bool):
+    """A progress bar on a terminal; a line every PROGRESS_LINE_SECONDS otherwise; nothing with ``quiet``."""
+    if quiet or not sys.stderr.isatty():
+        return ProgressLines(label, total, float("inf") if quiet else PROGRESS_LINE_SECONDS)
     from tqdm import tqdm
 
     # a pseudo-terminal may report a 0 x 0 screen (script, some CI runners): tqdm would then draw nothing
     columns, lines = shutil.get_terminal_size()
-    return tqdm(
-        total=total, unit="step", file=sys.stderr, disable=None, mininterval=0.25, ncols=min(columns, 100), nrows=lines
-    )
+    return tqdm(total=total, unit="step", file=sys.stderr, mininterval=0.25, ncols=min(columns, 100), nrows=lines)
 
 
-def run_steps(sim: Simulation, steps: int, dt: float, every: int | None) -> dict[str, np.ndarray]:
+def run_steps(
+    sim: Simulation,
+    steps: int,
+    dt: float,
+    every: int | None = None,
+    quiet: bool = False,
+    checkpoint: tuple[int, Callable[[dict], None]] | None = None,
+) -> dict[str, np.ndarray]:
     """Step ``sim`` and return the final state plus, with ``every``, stacked ``<name>_history`` and ``time``.
+    ``checkpoint=(K, save)`` calls ``save(state)`` after every K-th step. Steps are counted from ``sim.steps``
+    (a resumed run goes on from the checkpoint's count).
 
     ``step`` only enqueues work; a marker after each step tells when it has finished on the device, and the bar
     advances then. At most STEPS_IN_FLIGHT steps are queued ahead of the device."""
     queue = sim.runtime.queue
     frames, times = [], []
-    checked = {"step": 0, "at": time.monotonic()}  # the last step whose state was finite, and when it was read
+    watch = Watch(sim)
 
-    def check(state: dict, step: int) -> dict:
-        bad = non_finite(state)
-        if bad:
-            raise Diverged(checked["step"] + 1, step, bad, state)
-        checked.update(step=step, at=time.monotonic())
-        return state
-
-    def snapshot(step: int):
-        state = check(sim.state(), step)
+    def snapshot():
+        state = watch.check()
         frames.append({k: state[k] for k in sim.history})
         times.append(sim.time)
 
     if every:
-        snapshot(0)
+        snapshot()
     in_flight: deque[cl.Event] = deque()
     complete = cl.command_execution_status.COMPLETE
-    with _progress(steps) as progress:
+    with _progress(sim.scene.name if sim.scene else type(sim).__name__, steps, quiet) as progress:
         for i in range(1, steps + 1):
             sim.step(dt)
             if every and i % every == 0:
-                snapshot(i)
-            elif time.monotonic() - checked["at"] > CHECK_SECONDS:
-                check(sim.state(), i)
+                snapshot()
+            elif watch.due():
+                watch.check()
+            if checkpoint and sim.steps % checkpoint[0] == 0 and i < steps:
+                checkpoint[1](watch.check())
             in_flight.append(cl.enqueue_marker(queue))
             queue.flush()
             while in_flight and (len(in_flight) > STEPS_IN_FLIGHT or in_flight[0].command_execution_status == complete):
@@ -249,7 +312,7 @@ def run_steps(sim: Simulation, steps: int, dt: float, every: int | None) -> dict
         while in_flight:
             in_flight.popleft().wait()
             progress.update()
-    out = check(dict(sim.state()), steps)
+    out = dict(watch.check())
     if every:
         for key in sim.history:
             out[f"{key}_history"] = np.stack([f[key] for f in frames])
@@ -294,18 +357,55 @@ def write_npz(path: Path, arrays: dict) -> None:
         np.savez(f, **arrays)
 
 
+def load_checkpoint(text: str) -> dict[str, np.ndarray]:
+    """The arrays of a ``ugpcl run`` .npz (a checkpoint or a finished run) to go on from; UsageError otherwise."""
+    try:
+        with np.load(text) as data:
+            found = {k: data[k] for k in data.files}
+    except (OSError, ValueError) as err:
+        raise UsageError(f"--resume {text}: cannot read it as a .npz ({err})") from None
+    missing = [k for k in ("scene", "params", "seed", "steps", "sim_time") if k not in found]
+    if missing:
+        raise UsageError(f"--resume {text}: not written by ugpcl run (no {', '.join(missing)})")
+    if found.get("diverged", False):
+        raise UsageError(f"--resume {text}: holds a diverged state")
+    return found
+
+
 def cmd_run(args) -> int:
     # {{{ everything that can be checked before the run
+    resume = load_checkpoint(args.resume) if args.resume else None
+    if resume is not None:
+        if args.set or args.seed is not None:
+            raise UsageError("--resume takes the scene, its parameters and the seed from the file; drop --set/--seed")
+        if args.every:
+            raise UsageError("--every cannot be combined with --resume (the history would start at the checkpoint)")
+        if args.scene and args.scene != str(resume["scene"]):
+            raise UsageError(f"--resume {args.resume} holds scene {resume['scene']}, not {args.scene}")
+        args.scene = str(resume["scene"])
+        recorded = json.loads(str(resume["params"]))
+        args.dt = recorded.pop("dt") if args.dt is None else args.dt
+        args.seed = int(resume["seed"])
+    if not args.scene:
+        raise UsageError("run needs a scene (see `ugpcl list`) or --resume FILE")
     scene = scene_named(args.scene)
-    params = _params(scene, parse_sets(scene, args.set or []))
+    if resume is not None:
+        if not scene.simulation.resumable():
+            raise UsageError(f"--resume: scene {scene.name} cannot resume (it does not restore its state)")
+        params = _params(scene, recorded)
+    else:
+        params = _params(scene, parse_sets(scene, args.set or []))
+    seed = 0 if args.seed is None else args.seed
     if args.steps < 0:
         raise UsageError(f"--steps must be >= 0, got {args.steps}")
-    if not 0 <= args.seed <= MAX_SEED:
-        raise UsageError(f"--seed must be in [0, {MAX_SEED}], got {args.seed}")
+    if not 0 <= seed <= MAX_SEED:
+        raise UsageError(f"--seed must be in [0, {MAX_SEED}], got {seed}")
     if args.every is not None and args.every < 1:
         raise UsageError(f"--every must be >= 1, got {args.every}")
     if args.every and not scene.simulation.history:
         raise UsageError(f"--every: scene {scene.name} keeps no history arrays")
+    if args.checkpoint_every is not None and args.checkpoint_every < 1:
+        raise UsageError(f"--checkpoint-every must be >= 1, got {args.checkpoint_every}")
     try:
         dt = check_dt(args.dt, scene.simulation.default_dt)
     except ValueError as err:
@@ -313,17 +413,52 @@ def cmd_run(args) -> int:
     if args.mesh and not hasattr(scene.simulation, "export_mesh"):
         raise UsageError(f"--mesh: scene {scene.name} makes no mesh")
     out = output_path(args.out or f"out/{scene.name}.npz", "--out", (".npz",))
+    checkpoint = output_path(
+        args.checkpoint or (str(out.with_name(f"{out.stem}.checkpoint.npz")) if args.checkpoint_every else None),
+        "--checkpoint",
+        (".npz",),
+    )
     png = output_path(args.png, "--png", (".png",))
     mesh = output_path(args.mesh, "--mesh", MESH_SUFFIXES)
     size = parse_size(args.png_size)
     # }}}
     runtime = Runtime(args.device)
+    try:
+        resources.check(scene.simulation, params, runtime.device)
+    except resources.ResourceError as err:
+        raise UsageError(str(err)) from None
     print(f"ugpcl: {scene.name} on {runtime.label}", file=sys.stderr)
-    sim = scene.simulation(runtime, params, args.seed)
+    try:
+        sim = scene.simulation(runtime, params, seed)
+    except ParamError as err:
+        raise UsageError(str(err)) from None
+    sim.scene = scene
+    if resume is not None:
+        sim.restore(resume)
+        sim.steps, sim.time = int(resume["steps"]), float(resume["sim_time"])
+        print(f"ugpcl: resumed {args.resume} at step {sim.steps}", file=sys.stderr)
+
+    def record(state: dict) -> dict:
+        """What a .npz holds: the state and how it was made."""
+        return {
+            **state,
+            "params": np.array(params.to_json(dt=dt)),
+            "scene": np.array(scene.name),
+            "seed": np.int64(seed),
+            "steps": np.int64(sim.steps),
+            "sim_time": np.float64(sim.time),
+            "device": np.array(runtime.label),
+            "ugpcl_version": np.array(__version__),
+        }
+
+    def save_checkpoint(state: dict) -> None:
+        write_npz(checkpoint, record(state))
+
     start = time.perf_counter()
     diverged = None
     try:
-        state = run_steps(sim, args.steps, dt, args.every)
+        checkpoints = (args.checkpoint_every, save_checkpoint) if args.checkpoint_every else None
+        state = run_steps(sim, args.steps, dt, args.every, args.quiet, checkpoints)
     except Diverged as err:
         sets = " ".join(args.set or []) or "none (the scene's defaults)"
         diverged = f"{err}; parameters set: {sets}"
@@ -332,18 +467,7 @@ def cmd_run(args) -> int:
         state = {**err.state, "diverged": np.bool_(True)}
     runtime.finish()
     seconds = time.perf_counter() - start
-    write_npz(
-        out,
-        {
-            **state,
-            "params": np.array(params.to_json(dt=dt)),
-            "scene": np.array(scene.name),
-            "seed": np.int64(args.seed),
-            "steps": np.int64(args.steps),
-            "device": np.array(runtime.label),
-            "ugpcl_version": np.array(__version__),
-        },
-    )
+    write_npz(out, record(state))
     print(f"wrote {out} ({args.steps} steps in {seconds:.2f} s): {', '.join(sorted(state))}")
     if diverged:  # the state is written as asked; no picture or mesh of NaN
         print(f"ugpcl: error: {diverged}", file=sys.stderr)
@@ -444,9 +568,9 @@ def build_parser() -> argparse.ArgumentParser:
     command("params", "a scene's parameters: default, range, meaning", cmd_params).add_argument("scene")
 
     p = command("run", "run a scene headless and write its state to .npz", cmd_run, [device])
-    p.add_argument("scene")
+    p.add_argument("scene", nargs="?", help="a scene of `ugpcl list` (optional with --resume)")
     p.add_argument("--steps", type=int, default=300, help="simulation steps")
-    p.add_argument("--seed", type=int, default=0, help="random seed (same seed + device = same result)")
+    p.add_argument("--seed", type=int, default=None, help="random seed (same seed + device = same result; default: 0)")
     p.add_argument("--dt", type=float, default=None, help="time step in seconds (default: the scene's own)")
     p.add_argument(
         "--set", action="extend", nargs="+", metavar="NAME=VALUE", help="override parameters (see `ugpcl params`)"
@@ -455,7 +579,26 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=None, help="output .npz (default: out/SCENE.npz)")
     p.add_argument("--png", default=None, help="also render the final state to this PNG (offscreen, EGL)")
     p.add_argument("--png-size", default="800x600", help="PNG size WxH")
+    p.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no progress bar (on a terminal) or progress lines every few seconds (otherwise) on stderr",
+    )
     p.add_argument("--mesh", default=None, help="export the scene's geometry (.obj/.ply) where it makes one")
+    p.add_argument(
+        "--checkpoint-every",
+        type=int,
+        default=None,
+        metavar="K",
+        help="write the state after every K-th step (atomically) to --checkpoint, for long runs",
+    )
+    p.add_argument("--checkpoint", default=None, help="checkpoint .npz (default: OUT with .checkpoint.npz)")
+    p.add_argument(
+        "--resume",
+        default=None,
+        metavar="FILE",
+        help="go on from a checkpoint or earlier --out of a scene that can resume: --steps more steps",
+    )
     p.add_argument(
         "--keep-diverged",
         action="store_true",

@@ -76,10 +76,12 @@ def all_keys() -> str:
 
 
 def params_table(name: str) -> str:
-    rows = get(name).table()
+    scene = get(name)
+    rows = scene.table()
     for row in rows:
         row["name"] = f"`{row['name']}`"
-    return markdown_table(rows)
+    limits = [f"- `{rule}`" for rule in scene.limits()]
+    return "\n".join([markdown_table(rows), *(["", "Limits across parameters:", "", *limits] if limits else [])])
 
 
 def render_block(kind: str, scene: str | None, path: Path) -> str:

@@ -288,13 +288,24 @@ class Runtime:
     # {{{ arrays (pyopencl.array: a device buffer that knows its shape and dtype)
 
     def to_device(self, array: np.ndarray) -> cla.Array:
+        self._check_size(array.shape, array.dtype)
         return cla.to_device(self.queue, np.ascontiguousarray(array))
 
     def zeros(self, shape, dtype) -> cla.Array:
+        self._check_size(shape, dtype)
         return cla.zeros(self.queue, shape, dtype)
 
     def empty(self, shape, dtype) -> cla.Array:
+        self._check_size(shape, dtype)
         return cla.empty(self.queue, shape, dtype)
+
+    def _check_size(self, shape, dtype) -> None:
+        """A buffer larger than the device allows fails here with its size, not as INVALID_BUFFER_SIZE. Scenes
+        name the parameter to blame before they allocate (``Simulation.allocations``); this is the backstop."""
+        nbytes = int(np.prod(shape, dtype=np.int64)) * np.dtype(dtype).itemsize
+        if nbytes > self.device.max_mem_alloc_size:
+            limit = self.device.max_mem_alloc_size
+            raise ValueError(f"a buffer of shape {shape} needs {nbytes} bytes; {self.label} allows {limit} per buffer")
 
     def finish(self) -> None:
         self.queue.finish()

@@ -2,6 +2,7 @@
 
 * ``Params``: a frozen dataclass whose defaults are the book's values. Fields declared with ``param()`` carry
   their range; construction validates every field and raises ``ValueError`` naming it, the range and the value.
+  Rules across fields are declared in ``limits`` (shown under the table) and enforced by ``check()``.
 * ``Simulation(runtime, params, seed)``: ``reset()``, ``step(dt)``, ``state() -> dict`` (exactly what ``.npz``
   holds) and ``stats() -> dict``. One method per book kernel; ``step`` calls them in the book's order.
 * ``Scene``: a name the CLI and viewer know (``ugpcl run boids``), bound to a Simulation class and, for scenes
@@ -15,6 +16,7 @@ import dataclasses
 import inspect
 import json
 import math
+import re
 import typing
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
@@ -31,6 +33,8 @@ def param(default, lo=None, hi=None, *, lo_open: bool = False, choices=None, liv
     """A Params field with its book default and allowed range ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``) or
     ``choices``. For tuple fields the range applies to every component. ``live``: a change takes effect on the
     next step; changing a field that is not live resets the simulation (``Simulation.update``)."""
+    if lo is not None and hi is not None and not lo <= hi:
+        raise ValueError(f"param range [{lo}, {hi}] is empty")
     return field(default=default, metadata={"lo": lo, "hi": hi, "lo_open": lo_open, "choices": choices, "live": live})
 
 
@@ -44,37 +48,67 @@ def _describe_range(meta) -> str:
     return f"in {left}{'-inf' if lo is None else lo}, {'inf' if hi is None else hi}]"
 
 
+def _allowed(meta) -> str:
+    """`` in [lo, hi]`` (or `` one of ...``) for the end of a message; empty for a field without a range."""
+    allowed = _describe_range(meta) if meta else "any"
+    return "" if allowed == "any" else " " + allowed
+
+
+LIMIT = re.compile(r"(.*) (<=|>=|<|>) (.*)")
+"""A rule of ``Params.limits``: left side, comparison, right side (the last comparison splits)."""
+
+
+BOOL_WORDS = {"true": True, "false": False, "yes": True, "no": False, "on": True, "off": False, "1": True, "0": False}
+"""What ``--set`` takes for a bool."""
+
+
 def _parse_bool(text: str) -> bool:
-    lowered = text.strip().lower()
-    if lowered in ("1", "true", "yes", "on"):
-        return True
-    if lowered in ("0", "false", "no", "off"):
-        return False
-    raise ValueError
+    try:
+        return BOOL_WORDS[text.strip().lower()]
+    except KeyError:
+        raise ValueError from None
 
 
 @dataclass(frozen=True)
 class Params:
     """Base of every scene's parameters. Subclasses add fields and may extend ``check()``."""
 
+    limits: ClassVar[tuple[str, ...]] = ()
+    """Rules across fields that ``check()`` enforces, as ``ugpcl params`` and the chapter pages show them under the
+    table: ``"LEFT OP RIGHT"`` with OP one of <= >= < > (``"width*height*depth <= 33554432"``). ``check()`` raises
+    ``self.broken(rule)`` for each rule that fails."""
+
     def __post_init__(self):
         hints = typing.get_type_hints(type(self))
         for f in dataclasses.fields(self):
-            object.__setattr__(self, f.name, self._coerce(f.name, hints[f.name], getattr(self, f.name)))
-            self._check_range(f, getattr(self, f.name))
+            value = self._coerce(f.name, hints[f.name], getattr(self, f.name), _allowed(f.metadata))
+            object.__setattr__(self, f.name, value)
+            self._check_range(f, value)
         self.check()
 
     def check(self) -> None:
-        """Cross-field checks; raise ``ValueError`` naming the fields."""
+        """Cross-field checks: the rules of ``limits``, each raising ``self.broken(rule)``."""
+
+    def broken(self, rule: str, result: str = "") -> ValueError:
+        """The error for a broken rule of ``limits``: "LEFT must be OP RIGHT, got FIELD=VALUE, ... (RESULT)", with
+        every field the rule names and its value; ``result`` says what they come to ("33554432 cells")."""
+        if rule not in self.limits:
+            raise AssertionError(f"{type(self).__qualname__}.limits lacks {rule!r}")
+        left, op, right = LIMIT.fullmatch(rule).groups()
+        named = [n for n in self.names() if re.search(rf"\b{n}\b", rule)]
+        values = ", ".join(f"{n}={_show(getattr(self, n))}" for n in named)
+        return ValueError(f"{left} must be {op} {right}, got {values}" + (f" ({result})" if result else ""))
 
     @staticmethod
-    def _coerce(name: str, kind, value):
+    def _coerce(name: str, kind, value, allowed: str = ""):
+        """``value`` as ``kind`` (int -> float, list -> tuple); ``allowed`` (" in [lo, hi]") ends the messages."""
         origin = typing.get_origin(kind)
         if origin is tuple:
             parts = typing.get_args(kind)
             if not isinstance(value, list | tuple | np.ndarray) or len(value) != len(parts):
-                raise ValueError(f"{name} must be {len(parts)} numbers, got {value!r}")
-            return tuple(Params._coerce(name, p, v) for p, v in zip(parts, value, strict=True))
+                each = f" each{allowed}" if allowed else ""
+                raise ValueError(f"{name} must be {len(parts)} numbers{each}, got {value!r}")
+            return tuple(Params._coerce(name, p, v, allowed) for p, v in zip(parts, value, strict=True))
         if kind is bool:
             if isinstance(value, bool | np.bool_):
                 return bool(value)
@@ -84,26 +118,20 @@ class Params:
         elif kind is float:
             if isinstance(value, int | float | np.integer | np.floating) and not isinstance(value, bool):
                 if not math.isfinite(value):
-                    raise ValueError(f"{name} must be a finite number, got {value!r}")
+                    raise ValueError(f"{name} must be a finite number{allowed}, got {value!r}")
                 return float(value)
         elif kind is str:
             if isinstance(value, str):
                 return value
         else:
             return value
-        raise ValueError(f"{name} must be of type {kind.__name__}, got {value!r}")
+        raise ValueError(f"{name} must be of type {kind.__name__}{allowed}, got {value!r}")
 
     @staticmethod
     def _check_range(f: dataclasses.Field, value) -> None:
         meta = f.metadata
-        for v in value if isinstance(value, tuple) else (value,):
-            if isinstance(v, float) and abs(v) > FLOAT32_MAX:  # the kernels compute in float32: 1e39 is inf there
-                allowed = _describe_range(meta) if meta else "any"
-                allowed = "" if allowed == "any" else f"{allowed} and "
-                raise ValueError(f"{f.name} must be {allowed}within float32 (|x| <= 3.4e38), got {value!r}")
-        if not meta:
-            return
-        for v in value if isinstance(value, tuple) else (value,):
+        values = value if isinstance(value, tuple) else (value,)
+        for v in values if meta else ():  # a field declared without param() has no range
             bad = meta["choices"] is not None and v not in meta["choices"]
             if meta["lo"] is not None:
                 bad |= v <= meta["lo"] if meta["lo_open"] else v < meta["lo"]
@@ -111,6 +139,11 @@ class Params:
                 bad |= v > meta["hi"]
             if bad:
                 raise ValueError(f"{f.name} must be {_describe_range(meta)}, got {value!r}")
+        for v in values:  # a field without a finite range: the kernels compute in float32, where 1e39 is inf
+            if isinstance(v, float) and abs(v) > FLOAT32_MAX:
+                allowed = _allowed(meta).strip()
+                allowed = f"{allowed} and " if allowed else ""
+                raise ValueError(f"{f.name} must be {allowed}within float32 (|x| <= 3.4e38), got {value!r}")
 
     # {{{ conversions for the CLI, .npz and docs
 
@@ -125,7 +158,8 @@ class Params:
 
     @classmethod
     def parse(cls, name: str, text: str):
-        """Convert the text of ``--set name=text`` with the field's type (tuples: comma-separated)."""
+        """Convert the text of ``--set name=text`` with the field's type (tuples: comma-separated). A text that is
+        not of the type names the field, the type and its range: ``count expects int in [1, 10], got 'x'``."""
         if name not in cls.names():
             raise ValueError(f"unknown parameter {name!r}; valid: {', '.join(cls.names())}")
         kind = typing.get_type_hints(cls)[name]
@@ -138,8 +172,14 @@ class Params:
                 return tuple(_parse_one(p, t) for p, t in zip(parts, items, strict=True))
             return _parse_one(kind, text)
         except ValueError:
+            meta = next(f.metadata for f in dataclasses.fields(cls) if f.name == name)
             shape = ",".join(p.__name__ for p in parts) if parts else kind.__name__
-            raise ValueError(f"{name} expects {shape}, got {text!r}") from None
+            if kind is bool:
+                allowed = " (" + "|".join(BOOL_WORDS) + ")"
+            else:
+                allowed = _allowed(meta)
+                allowed = f" each{allowed}" if parts and allowed else allowed
+            raise ValueError(f"{name} expects {shape}{allowed}, got {text!r}") from None
 
     def replace(self, **changes) -> Params:
         unknown = sorted(set(changes) - set(self.names()))
@@ -213,6 +253,11 @@ def _field_docs(cls) -> dict[str, str]:
 # {{{ simulation
 
 
+class ParamError(ValueError):
+    """A parameter set that passes its ranges and limits but that the scene finds unusable when it builds its state
+    (a figure sampled so coarsely that no point falls inside it). Like a range error: one line, exit 2."""
+
+
 class Simulation:
     """Base of every scene's simulation; subclasses set ``Params`` and implement the four methods."""
 
@@ -261,6 +306,21 @@ class Simulation:
 
     def stats(self) -> dict[str, Any]:
         return {"steps": self.steps, "time": self.time}
+
+    def restore(self, state: dict[str, np.ndarray]) -> None:
+        """Put a ``state()`` back on the device after ``reset()`` (``ugpcl run --resume``). A scene that can resume
+        overrides this; its ``state()`` must then hold everything a step reads."""
+        raise NotImplementedError(f"{type(self).__name__} cannot restore a saved state")
+
+    @classmethod
+    def allocations(cls, params: Params) -> list:
+        """The large device buffers and images ``params`` ask for (``ugpcl.resources.Allocation``), each with the
+        parameter that sizes it: checked against the device before a run (``resources.check``)."""
+        return []
+
+    @classmethod
+    def resumable(cls) -> bool:
+        return cls.restore is not Simulation.restore
 
     def update(self, **changes) -> None:
         """Change parameters (validated); reset unless every changed one is live (``param(..., live=True)``)."""
@@ -313,6 +373,10 @@ class Scene:
 
     def params(self, **overrides) -> Params:
         return self.simulation.Params(**{**self.defaults, **overrides})
+
+    def limits(self) -> tuple[str, ...]:
+        """The rules across fields its Params checks (``Params.limits``), shown under the table."""
+        return self.simulation.Params.limits
 
     def table(self) -> list[dict[str, str]]:
         """``Params.table()`` with this scene's defaults (``ugpcl params``, the chapter pages)."""

@@ -15,7 +15,8 @@ from pathlib import Path
 import moderngl
 import moderngl_window as mglw
 
-from ugpcl.cli import HelpFormatter, UsageError, parse_sets, parse_size, quiet_broken_pipe, scene_named
+from ugpcl import resources
+from ugpcl.cli import Diverged, HelpFormatter, UsageError, Watch, parse_sets, parse_size, quiet_broken_pipe, scene_named
 from ugpcl.runtime import BuildError, DeviceError, Runtime
 
 from .gl import TextOverlay, read_pixels, save_png
@@ -67,6 +68,7 @@ class ViewerWindow(mglw.WindowConfig):
         self.camera = self.view.make_camera()
         self.camera.aspect = self.wnd.aspect_ratio
         self.paused, self.step_once, self.show_help = False, False, False
+        self.watch, self.diverged = Watch(self.sim), None  # diverged: the message while the state holds NaN/inf
         self.overlay = TextOverlay(self.ctx)
         self.wnd.title = f"ugpcl - {self.view.title or self.scene.name}  (H: help)"
         self.key_names = self._key_names()
@@ -108,14 +110,30 @@ class ViewerWindow(mglw.WindowConfig):
             for _ in range(self.view.steps_per_frame):
                 self.sim.step(dt)
             self.step_once = False
-        self.view.upload()
+            if self.watch.due() or self.paused:
+                self.check_divergence()
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.clear(*self.view.background, 1.0, depth=1.0)
-        self.view.draw(self.camera)
+        if not self.diverged:  # a NaN state is not drawn: the message says what happened
+            self.view.upload()
+            self.view.draw(self.camera)
         self.overlay.set_lines(self._overlay_lines())
         self.overlay.draw(self.wnd.buffer_size)
 
+    def check_divergence(self) -> None:
+        """Pause with the message ``ugpcl run`` would print when the state has turned NaN/inf."""
+        try:
+            self.watch.check()
+        except Diverged as err:
+            defaults = self.scene.params().to_dict()
+            changed = [f"{k}={v}" for k, v in self.sim.params.to_dict().items() if defaults.get(k) != v]
+            self.diverged = [*str(err).split(": "), "parameters changed:", *(changed or ["none"])]
+            self.paused = True
+            print(f"ugpcl-view: {err}; parameters changed: {' '.join(changed) or 'none'}; paused", file=sys.stderr)
+
     def _overlay_lines(self) -> list[str]:
+        if self.diverged:  # short lines: the window may be small
+            return ["DIVERGED: paused", "r resets, esc quits", *self.diverged]
         lines = self.view.status() + (["PAUSED (space: run, n: step)"] if self.paused else [])
         if self.show_help:
             lines += ["", f"{self.view.title or self.scene.name}: keys"]
@@ -172,13 +190,14 @@ class ViewerWindow(mglw.WindowConfig):
     # {{{ shared key actions
 
     def toggle_pause(self) -> None:
-        self.paused = not self.paused
+        self.paused = not self.paused or self.diverged is not None
 
     def single_step(self) -> None:
-        self.paused, self.step_once = True, True
+        self.paused, self.step_once = True, self.diverged is None
 
     def reset(self) -> None:
         self.sim.reset()
+        self.watch, self.diverged = Watch(self.sim), None
 
     def screenshot(self) -> None:
         now = time.time()  # milliseconds in the name: two presses in one second keep both pictures
@@ -221,6 +240,7 @@ def main(argv: list[str] | None = None) -> int:
                 f"under xvfb-run, or render pictures with `ugpcl run {scene.name} --png out.png`"
             )
         runtime = Runtime(args.device)  # OpenCL before the GL window: see ugpcl.runtime.all_devices
+        resources.check(scene.simulation, params, runtime.device)  # ResourceError is a ValueError: exit 2
         ViewerWindow.launch = {"scene": scene, "params": params, "seed": args.seed, "runtime": runtime}
         # moderngl-window parses its own flags from sys.argv unless given a (non-empty) list of them
         mglw.run_window_config(ViewerWindow, args=["--size", f"{width}x{height}"])

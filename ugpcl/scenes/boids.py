@@ -39,32 +39,38 @@ INIT_SPEED = 0.1
 class Params(BaseParams):
     max_object_num: int = param(16384, 1, 1 << 22)
     """Number of boids N (book: MaxObjectNum, inspector range 256-32768)."""
-    cohesion_neighborhood_radius: float = param(2.0, 0.0, lo_open=True, live=True)
-    """Neighbours closer than this pull towards their centroid, world units (book: _CohesionNeighborhoodRadius)."""
-    alignment_neighborhood_radius: float = param(2.0, 0.0, lo_open=True, live=True)
-    """Neighbours closer than this share their mean velocity, world units (book: _AlignmentNeighborhoodRadius)."""
-    separate_neighborhood_radius: float = param(1.0, 0.0, lo_open=True, live=True)
-    """Neighbours closer than this push apart, world units (book: _SeparateNeighborhoodRadius)."""
-    max_speed: float = param(5.0, 0.0, lo_open=True, live=True)
-    """Speed limit and target speed of every steering rule, units/s (book: _MaxSpeed)."""
-    max_steer_force: float = param(0.5, 0.0, live=True)
-    """Length limit of each rule's steering force (book: _MaxSteerForce)."""
-    cohesion_weight: float = param(1.0, 0.0, live=True)
-    """Weight of the cohesion force (book: _CohesionWeight)."""
-    alignment_weight: float = param(1.0, 0.0, live=True)
-    """Weight of the alignment force (book: _AlignmentWeight)."""
-    separate_weight: float = param(3.0, 0.0, live=True)
-    """Weight of the separation force (book: _SeparateWeight)."""
-    avoid_wall_weight: float = param(10.0, 0.0, live=True)
-    """Push back per axis while a boid is outside the box (book: _AvoidWallWeight)."""
-    wall_center: tuple[float, float, float] = param((0.0, 0.0, 0.0), live=True)
-    """Centre of the box, world units (book: _WallCenter)."""
-    wall_size: tuple[float, float, float] = param((32.0, 32.0, 32.0), 0.0, lo_open=True, live=True)
-    """Edge lengths of the box, world units (book: _WallSize)."""
+    cohesion_neighborhood_radius: float = param(2.0, 0.0, 1e4, lo_open=True, live=True)
+    """Neighbours closer than this pull towards their centroid, world units (book: _CohesionNeighborhoodRadius).
+    Up to 1e4: squared in float32."""
+    alignment_neighborhood_radius: float = param(2.0, 0.0, 1e4, lo_open=True, live=True)
+    """Neighbours closer than this share their mean velocity, world units (book: _AlignmentNeighborhoodRadius).
+    Up to 1e4: squared in float32."""
+    separate_neighborhood_radius: float = param(1.0, 0.0, 1e4, lo_open=True, live=True)
+    """Neighbours closer than this push apart, world units (book: _SeparateNeighborhoodRadius).
+    Up to 1e4: squared in float32."""
+    max_speed: float = param(5.0, 0.0, 1e4, lo_open=True, live=True)
+    """Speed limit and target speed of every steering rule, units/s (book: _MaxSpeed).
+    Up to 1e4: |v|^2 stays finite in float32."""
+    max_steer_force: float = param(0.5, 0.0, 1e4, live=True)
+    """Length limit of each rule's steering force (book: _MaxSteerForce).
+    Up to 1e4: weighted sums of forces stay finite in float32."""
+    cohesion_weight: float = param(1.0, 0.0, 1e4, live=True)
+    """Weight of the cohesion force (book: _CohesionWeight).
+    Up to 1e4: weight x max_steer_force stays finite in float32."""
+    alignment_weight: float = param(1.0, 0.0, 1e4, live=True)
+    """Weight of the alignment force (book: _AlignmentWeight). Up to 1e4, as cohesion_weight."""
+    separate_weight: float = param(3.0, 0.0, 1e4, live=True)
+    """Weight of the separation force (book: _SeparateWeight). Up to 1e4, as cohesion_weight."""
+    avoid_wall_weight: float = param(10.0, 0.0, 1e4, live=True)
+    """Push back per axis while a boid is outside the box (book: _AvoidWallWeight). Up to 1e4, as cohesion_weight."""
+    wall_center: tuple[float, float, float] = param((0.0, 0.0, 0.0), -1e4, 1e4, live=True)
+    """Centre of the box, world units (book: _WallCenter). Within 1e4: float32 positions keep 1e-3."""
+    wall_size: tuple[float, float, float] = param((32.0, 32.0, 32.0), 0.0, 1e4, lo_open=True, live=True)
+    """Edge lengths of the box, world units (book: _WallSize). Up to 1e4: float32 positions keep 1e-3."""
     simulation_block_size: int = param(256, choices=(1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024))
     """Work-group size = tile length of ForceCS (book: SIMULATION_BLOCK_SIZE); halved if the device cannot run it."""
-    object_scale: tuple[float, float, float] = param((0.1, 0.2, 0.5), 0.0, lo_open=True, live=True)
-    """Scale of the instanced cube drawn per boid, render only (book: ObjectScale)."""
+    object_scale: tuple[float, float, float] = param((0.1, 0.2, 0.5), 0.0, 1e4, lo_open=True, live=True)
+    """Scale of the instanced cube drawn per boid, render only (book: ObjectScale). Up to 1e4, as wall_size."""
     variant: str = param("tiled", choices=("tiled", "naive", "grid"), live=True)
     """ForceCS flavour: the book's local-memory tiles, the plain global-memory loop, or the uniform grid."""
 
@@ -180,6 +186,12 @@ class Simulation(BaseSimulation):
             "velocity": np.ascontiguousarray(data["velocity"][:, :3]),
             "force": np.ascontiguousarray(self.boid_force.get().view(np.float32).reshape(-1, 4)[:, :3]),
         }
+
+    def restore(self, state: dict[str, np.ndarray]) -> None:
+        shape = np.shape(state["position"])
+        if shape != (self.n, 3):
+            raise ValueError(f"saved position has shape {shape}; max_object_num={self.n} makes {(self.n, 3)}")
+        self.set_boids(state["position"], state["velocity"])  # the force is recomputed by the next ForceCS
 
     def stats(self) -> dict:
         speed = np.linalg.norm(self.boids()["velocity"][:, :3], axis=1)

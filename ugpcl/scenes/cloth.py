@@ -25,6 +25,7 @@ import pyopencl.cltypes as cltypes
 
 from ..benchmark import seconds_per_call, seconds_per_step
 from ..buffers import PingPong
+from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
 from ..runtime import round_up
 from ..scene import Params as BaseParams
@@ -49,27 +50,35 @@ class Params(BaseParams):
     """CSSimulation launches per frame (book: VerletIterationNum, inspector range 1-16)."""
     res: tuple[int, int] = param((128, 128), 2, 4096)
     """Particles (W, H) (book: ClothResolution); the top row y = H-1 is pinned."""
-    rest_length: float = param(0.02, 0.0, lo_open=True, live=True)
-    """Structural spring rest length = grid spacing, metres (book: RestLength); cloth size = res * rest_length."""
-    stiffness: float = param(10000.0, 0.0, live=True)
-    """Spring constant k (book: Stiffness); explicit Verlet needs dt * sqrt(12 k / mass) < 2."""
-    damp: float = param(0.996, 0.0, live=True)
-    """Velocity damping b, applied once per neighbour: force -= b * v (book: Damp)."""
-    mass: float = param(1.0, 0.0, lo_open=True, live=True)
-    """Mass of every particle, kg; the kernel gets 1/mass (book: Mass)."""
-    gravity: tuple[float, float, float] = param((0.0, -9.81, 0.0), live=True)
-    """Added to each particle's force, then divided by the mass (book: Gravity)."""
+    rest_length: float = param(0.02, 1e-4, 10.0, live=True)
+    """Structural spring rest length = grid spacing, metres (book: RestLength); cloth size = res * rest_length.
+    1e-4 to 10: the cloth (up to 4096 x 10 m) keeps float32 positions to 4 mm and springs above their rounding."""
+    stiffness: float = param(10000.0, 0.0, 1e20, live=True)
+    """Spring constant k (book: Stiffness); explicit Verlet needs dt * sqrt(12 k / mass) < 2.
+    Up to 1e20: one spring's force stays finite in float32; past stability 2 it diverges and the run says so."""
+    damp: float = param(0.996, 0.0, 1e6, live=True)
+    """Velocity damping b, applied once per neighbour: force -= b * v (book: Damp).
+    Up to 1e6: b * v stays finite in float32."""
+    mass: float = param(1.0, 1e-6, 1e6, live=True)
+    """Mass of every particle, kg; the kernel gets 1/mass (book: Mass).
+    1e-6 to 1e6: 1/mass and mass * gravity stay finite in float32."""
+    gravity: tuple[float, float, float] = param((0.0, -9.81, 0.0), -1e4, 1e4, live=True)
+    """Added to each particle's force, then divided by the mass (book: Gravity).
+    Within 1e4: force / mass stays finite in float32."""
     physical_gravity: bool = param(False, live=True)
     """Treat gravity as an acceleration (force = mass * gravity) instead of the book's force (vol.4 §3.4,
     Kernels.compute: force = _Gravity, acc = force * invMass)."""
     sphere: bool = param(True, live=True)
     """Collide with the sphere (book: _EnableCollideSphere, true when CollisionSphereTransform is set)."""
-    sphere_scale: float = param(2.0, 0.0, lo_open=True, live=True)
-    """Diameter of the drawn sphere (its localScale.x); collision radius = scale / 2 + 0.01."""
-    translate_center_z: float = param(0.0, live=True)
-    """Centre of the sphere's motion along z, metres (book: ColliderTranslate.TranslateCenterZ)."""
-    translate_length_z: float = param(4.0, live=True)
-    """Amplitude of the sphere's motion along z, metres (book: ColliderTranslate.TranslateLengthZ)."""
+    sphere_scale: float = param(2.0, 0.0, 1e4, lo_open=True, live=True)
+    """Diameter of the drawn sphere (its localScale.x); collision radius = scale / 2 + 0.01.
+    Up to 1e4 m: float32 positions keep 1 mm."""
+    translate_center_z: float = param(0.0, -1e4, 1e4, live=True)
+    """Centre of the sphere's motion along z, metres (book: ColliderTranslate.TranslateCenterZ).
+    Within 1e4 m: float32 positions keep 1 mm."""
+    translate_length_z: float = param(4.0, -1e4, 1e4, live=True)
+    """Amplitude of the sphere's motion along z, metres (book: ColliderTranslate.TranslateLengthZ).
+    Within 1e4 m: float32 positions keep 1 mm."""
     sphere_motion: bool = param(True, live=True)
     """Move the sphere with the frame time; off freezes it where it is."""
     num_threads_xy: int = param(16, choices=(1, 2, 4, 8, 16, 32))
@@ -77,10 +86,12 @@ class Params(BaseParams):
     variant: str = param("fixed", choices=("book", "fixed"))
     """fixed: guard normalize(0) in springs and normals; book: leave it (NaN for coincident particles)."""
 
+    limits = (f"res[0]*res[1] <= {MAX_PARTICLES}",)
+
     def check(self) -> None:
         w, h = self.res
         if w * h > MAX_PARTICLES:
-            raise ValueError(f"res must have W*H <= {MAX_PARTICLES}, got {self.res} ({w * h} particles)")
+            raise self.broken(self.limits[0], f"{w * h} particles")
 
     @property
     def substep_dt(self) -> float:
@@ -260,10 +271,19 @@ class Simulation(BaseSimulation):
             "diverged": DIVERGED if not np.isfinite(pos).all() else False,
         }
 
-    def export_mesh(self, path) -> None:
-        """The cloth surface (W*H vertices, 2 triangles per cell, the simulated normals) as .obj or .ply."""
+    def mesh(self) -> Mesh:
+        """The cloth surface: W*H vertices y * W + x, 2 triangles per cell, the simulated normals and
+        uv = (x, y) / (res - 1), where the book's shader samples the buffers. Open, so not watertight."""
         state = self.state()
-        write_mesh(path, state["pos"].reshape(-1, 3), grid_triangles(self.width, self.height), state["normal"])
+        y, x = np.mgrid[0 : self.height, 0 : self.width]
+        uvs = np.stack([x / (self.width - 1), y / (self.height - 1)], axis=-1)
+        # The ring normal starts at (0, 0, -1) (CSInit) and grid_triangles wind towards +z: reverse them so the
+        # triangles face the way the simulated normals point (drawn with Cull Off, the view needs no such care).
+        return Mesh(state["pos"], grid_triangles(self.width, self.height)[:, ::-1], state["normal"], uvs)
+
+    def export_mesh(self, path) -> None:
+        """--mesh: ``mesh()`` as .obj, .ply or .glb."""
+        write_mesh(path, self.mesh())
 
     # }}}
 

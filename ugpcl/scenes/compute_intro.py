@@ -20,6 +20,7 @@ import numpy as np
 import pyopencl as cl
 
 from ..benchmark import seconds_per_call
+from ..resources import Allocation
 from ..runtime import round_up
 from ..scene import Params as BaseParams
 from ..scene import Scene, check_dt, param
@@ -59,6 +60,11 @@ class Simulation(BaseSimulation):
     """Both samples of the chapter; each step re-dispatches them as the book's Update does."""
 
     Params = Params
+
+    @classmethod
+    def allocations(cls, params: Params) -> list[Allocation]:
+        size = params.tex_width * params.tex_height * 4  # RGBA8
+        return [Allocation("texture", size, "tex_width", image=(params.tex_width, params.tex_height))]
 
     def _reset(self) -> None:
         p, rt = self.params, self.runtime

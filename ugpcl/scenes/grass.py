@@ -24,6 +24,7 @@ import pyopencl.cltypes as cltypes
 
 from ..benchmark import seconds_per_call
 from ..geometry import grass as geo
+from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
 from ..geometry.transforms import euler_matrix, translation
 from ..scene import Params as BaseParams
@@ -118,12 +119,11 @@ class Params(BaseParams):
         """One blade per triangle of every plane: planes x 2 x resolution^2 (book: 100 x 200 = 20,000)."""
         return self.planes[0] * self.planes[1] * 2 * self.plane_resolution**2
 
+    limits = (f"2*planes[0]*planes[1]*plane_resolution**2 <= {MAX_BLADES} blades",)
+
     def check(self) -> None:
         if self.blades > MAX_BLADES:
-            raise ValueError(
-                f"planes x 2 x plane_resolution^2 must be <= {MAX_BLADES} blades, got {self.blades} "
-                f"(planes={self.planes}, plane_resolution={self.plane_resolution})"
-            )
+            raise self.broken(self.limits[0], f"{self.blades} blades")
 
     def block(self, time: float) -> np.ndarray:
         """The GrassParams record the kernel reads, for shader time ``time``."""
@@ -250,9 +250,14 @@ class Simulation(BaseSimulation):
             "backend": self.params.backend,
         }
 
+    def expanded_mesh(self) -> Mesh:
+        """The blades in world space, 7 vertices and 5 strip triangles each; no normals (the book's blades are unlit
+        and two-sided). Named so, not ``mesh()``, because ``self.mesh`` is the mesh the grass grows on."""
+        return Mesh(self.blades_state()["blade_pos"], geo.strip_triangles(self.blades))
+
     def export_mesh(self, path) -> None:
-        """The blades as one triangle mesh (world space)."""
-        write_mesh(path, self.blades_state()["blade_pos"].reshape(-1, 3), geo.strip_triangles(self.blades))
+        """--mesh: ``expanded_mesh()`` as .obj, .ply or .glb."""
+        write_mesh(path, self.expanded_mesh())
 
 
 # }}}
@@ -344,10 +349,20 @@ class PyramidSimulation(BaseSimulation):
             "backend": self.params.backend,
         }
 
+    def expanded_mesh(self) -> Mesh:
+        """The pyramids in world space, 12 vertices each as emitted (unwelded), no normals. The book's base runs the
+        same way as the sides (it draws with Cull Off); here the base is reversed, and all four triangles where the
+        apex lies behind the base, so that each pyramid, welded, is a closed solid wound outwards."""
+        pos = self.state()["pyr_pos"]  # (T, 12, 3): p0 p1 p2 | p0 p1 apex | p1 p2 apex | p2 p0 apex
+        p0, p1, p2, apex = (pos[:, k].astype(np.float64) for k in (0, 1, 2, 5))
+        inward = np.einsum("ij,ij->i", np.cross(p1 - p0, p2 - p0), apex - p0) < 0
+        local = np.array([[0, 2, 1], [3, 4, 5], [6, 7, 8], [9, 10, 11]])
+        first = geo.PYRAMID_VERTICES * np.arange(len(pos))[:, None, None]
+        return Mesh(pos, np.where(inward[:, None, None], local[:, ::-1], local) + first)
+
     def export_mesh(self, path) -> None:
-        """The pyramids (world space) as one triangle mesh: 4 triangles per input triangle."""
-        vertices = self.state()["pyr_pos"].reshape(-1, 3)
-        write_mesh(path, vertices, np.arange(len(vertices)).reshape(-1, 3))
+        """--mesh: ``expanded_mesh()`` as .obj, .ply or .glb."""
+        write_mesh(path, self.expanded_mesh())
 
 
 # }}}

@@ -30,7 +30,9 @@ import pyopencl.cltypes as cltypes
 
 from ..benchmark import seconds_per_call
 from ..buffers import Pool
+from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
+from ..resources import Allocation
 from ..runtime import round_up
 from ..scene import Params as BaseParams
 from ..scene import Scene, check_dt, param
@@ -66,8 +68,9 @@ class Params(BaseParams):
     """Cells per axis N; the object cube [-0.5, 0.5]^3 has N^3 cells of size 1/N (book: segmentNum)."""
     threshold: float = param(0.5, 0.0, 1.0, live=True)
     """Iso value: a corner is outside (its case bit set) when its value <= threshold (book: threshold, _Threashold)."""
-    time: float = param(0.0, 0.0)
-    """Field time at reset, seconds (Unity: _Time.y); each step adds dt while ``animate`` is on."""
+    time: float = param(0.0, 0.0, 1e6)
+    """Field time at reset, seconds (Unity: _Time.y); each step adds dt while ``animate`` is on.
+    Up to 1e6 s: float32 time still resolves 1/16 s."""
     animate: bool = param(True, live=True)
     """Advance the field's time by dt every step (off: every frame polygonises the same field)."""
     shape: str = param("spheres-book", choices=tuple(SHAPES), live=True)
@@ -89,8 +92,8 @@ class Params(BaseParams):
     """Smoothness, render only (book: glossiness / _Glossiness)."""
     emission_color: tuple[float, float, float] = param((0.0, 0.0, 0.0), 0.0, 1.0, live=True)
     """Emission colour, render only (book: EmissionColor)."""
-    emission_intensity: float = param(0.0, 0.0, live=True)
-    """Emission multiplier, render only (book: EmissionIntensity)."""
+    emission_intensity: float = param(0.0, 0.0, 1e3, live=True)
+    """Emission multiplier, render only (book: EmissionIntensity). Up to 1e3."""
 
 
 def field_constants(shape: str, t: float) -> tuple[tuple[float, float, float], float]:
@@ -105,6 +108,15 @@ class Simulation(BaseSimulation):
 
     Params = Params
     history = ()
+
+    @classmethod
+    def allocations(cls, params: Params) -> list[Allocation]:
+        n = params.segment_num
+        capacity = params.triangle_capacity or CAPACITY_PER_FACE_CELL * n**2
+        return [
+            Allocation("field", (n + 1) ** 3 * 4, "segment_num"),
+            Allocation("triangle pool", capacity * TRIANGLE_DTYPE.itemsize, "triangle_capacity"),
+        ]
 
     def _reset(self) -> None:
         p, rt = self.params, self.runtime
@@ -258,22 +270,22 @@ class Simulation(BaseSimulation):
         """The sampled field as (N+1, N+1, N+1) float32 indexed [z, y, x]."""
         return self.field.get().reshape((self.n + 1,) * 3)
 
-    def mesh(self, tri: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Welded mesh (vertices (V, 3), normals (V, 3), faces (F, 3) int32) in object space: cells that share an
-        edge compute the same float vertex, so equal positions are one vertex."""
+    def mesh(self, tri: np.ndarray | None = None) -> Mesh:
+        """The welded surface in object space, with the field-gradient normals: cells that share an edge compute
+        the same float vertex, so equal positions are one vertex (an exact weld, no tolerance)."""
         tri = self.triangles() if tri is None else tri
         corners = tri["position"].reshape(-1, 3)
         vertices, first, inverse = np.unique(corners, axis=0, return_index=True, return_inverse=True)
         normals = tri["normal"].reshape(-1, 3)[first]
-        return vertices, normals, inverse.reshape(-1, 3).astype(np.int32)
+        return Mesh(vertices, inverse.reshape(-1, 3), normals)
 
     def export_mesh(self, path) -> None:
-        vertices, normals, faces = self.mesh()
-        write_mesh(path, vertices, faces, normals)
+        """--mesh: ``mesh()`` as .obj, .ply or .glb."""
+        write_mesh(path, self.mesh())
 
     def state(self) -> dict[str, np.ndarray]:
         tri = self.triangles()
-        vertices, normals, faces = self.mesh(tri)
+        mesh = self.mesh(tri)
         return {
             "field": self.field_array(),
             "tri_pos": np.ascontiguousarray(tri["position"]),
@@ -283,9 +295,9 @@ class Simulation(BaseSimulation):
             "counter_overflowed": np.bool_(self.overflowed),
             "tri_count_t": np.asarray(self.frame_counts, np.int64),
             "frame_time": np.asarray(self.frame_times, np.float64),
-            "vertices": vertices,
-            "normals": normals,
-            "faces": faces,
+            "vertices": mesh.vertices,
+            "normals": mesh.normals,
+            "faces": mesh.faces,
         }
 
     def stats(self) -> dict:

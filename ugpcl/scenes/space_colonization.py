@@ -40,6 +40,7 @@ import pyopencl.cltypes as cltypes
 
 from ..buffers import Pool
 from ..geometry import space_colonization_ref as ref
+from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
 from ..grid import LOCAL_SIZE as GRID_LOCAL_SIZE
 from ..grid import UniformGrid, next_power_of_two
@@ -77,18 +78,22 @@ class GrowthParams(BaseParams):
 
     seed_count: int = param(6, 1, 256)
     """Initial nodes, placed on random attraction points (book: seedCount)."""
-    influence_distance: float = param(1.14, 0.0, lo_open=True, live=True)
-    """An attraction pulls its nearest node within this distance, in units of `unit` (book: influenceDistance)."""
-    growth_distance: float = param(0.597, 0.0, lo_open=True, live=True)
-    """Length of one new branch, in units of `unit` (book: growthDistance)."""
-    kill_distance: float = param(0.484, 0.0, lo_open=True, live=True)
-    """An attraction this close to any node is removed, in units of `unit` (book: killDistance)."""
-    growth_speed: float = param(22.0, 0.0, lo_open=True, live=True)
-    """t grows by dt * growth_speed * mass per step, 1/s (book: growthSpeed)."""
-    mass_min: float = param(0.25, 0.0, lo_open=True, live=True)
-    """Lower bound of the per-node growth-speed factor (book: massMin)."""
-    mass_max: float = param(1.0, 0.0, lo_open=True, live=True)
-    """Upper bound of the per-node growth-speed factor (book: massMax)."""
+    influence_distance: float = param(1.14, 0.0, 1e3, lo_open=True, live=True)
+    """An attraction pulls its nearest node within this distance, in units of `unit` (book: influenceDistance).
+    Up to 1e3 units: far past the cloud; squared in float32."""
+    growth_distance: float = param(0.597, 0.0, 1e3, lo_open=True, live=True)
+    """Length of one new branch, in units of `unit` (book: growthDistance).
+    Up to 1e3 units: far past the cloud; squared in float32."""
+    kill_distance: float = param(0.484, 0.0, 1e3, lo_open=True, live=True)
+    """An attraction this close to any node is removed, in units of `unit` (book: killDistance).
+    Up to 1e3 units: far past the cloud; squared in float32."""
+    growth_speed: float = param(22.0, 0.0, 1e4, lo_open=True, live=True)
+    """t grows by dt * growth_speed * mass per step, 1/s (book: growthSpeed).
+    Up to 1e4: dt * growth_speed * mass stays finite."""
+    mass_min: float = param(0.25, 0.0, 1e3, lo_open=True, live=True)
+    """Lower bound of the per-node growth-speed factor (book: massMin). Up to 1e3, as growth_speed."""
+    mass_max: float = param(1.0, 0.0, 1e3, lo_open=True, live=True)
+    """Upper bound of the per-node growth-speed factor (book: massMax). Up to 1e3, as growth_speed."""
     frame: int = param(1, 1, 60, live=True)
     """Run the algorithm every `frame` steps (book: frame)."""
     iterations: int = param(1, 1, 5, live=True)
@@ -99,15 +104,18 @@ class GrowthParams(BaseParams):
     node drain the pool."""
     node_capacity: int = param(0, 0, 1 << 24)
     """Node slots (0: one per attraction, as the book). Fewer slots show the pool running dry."""
-    tube_radius: float = param(0.0055, 0.0, lo_open=True, live=True)
+    tube_radius: float = param(0.0055, 0.0, 100.0, lo_open=True, live=True)
     """Tube radius of the view and of --mesh, in the attraction cloud's units (book: _Thickness; 0.033 at object
-    scale 6 in the TubularEdge scene, 0.01 on the skinned scene's 3.4-unit character; both scaled to ours)."""
+    scale 6 in the TubularEdge scene, 0.01 on the skinned scene's 3.4-unit character; both scaled to ours).
+    Up to 100: far wider than any cloud."""
     mesh_kind: str = param("tubes", choices=("tubes", "lines"), live=True)
     """What --mesh writes: closed capsules per grown edge, or OBJ polylines (`l`)."""
 
+    limits = ("mass_min <= mass_max",)
+
     def check(self) -> None:
         if self.mass_min > self.mass_max:
-            raise ValueError(f"mass_min must be <= mass_max, got {self.mass_min} > {self.mass_max}")
+            raise self.broken(self.limits[0])
 
 
 class GrowthSimulation(BaseSimulation):
@@ -375,15 +383,19 @@ class GrowthSimulation(BaseSimulation):
         b = drawn[edges["b"]].astype(np.float64)
         return a, a + (b - a) * nodes["t"][edges["b"]][:, None]
 
+    def mesh(self) -> Mesh:
+        """A closed capsule of tube_radius around every grown edge, as drawn: watertight, wound outwards."""
+        vertices, normals, triangles = ref.tube_mesh(*self.grown_segments(), self.params.tube_radius)
+        return Mesh(vertices, triangles, normals)
+
     def export_mesh(self, path) -> None:
-        """--mesh: capsules around every grown edge (mesh_kind=tubes) or OBJ polylines (lines), as drawn."""
+        """--mesh: ``mesh()`` (mesh_kind=tubes) or the grown edges as line segments (lines; .obj or .glb)."""
+        if self.params.mesh_kind == "tubes":
+            write_mesh(path, self.mesh())
+            return
         a, b = self.grown_segments()
-        if self.params.mesh_kind == "lines":
-            vertices = np.stack([a, b], axis=1).reshape(-1, 3)
-            write_mesh(path, vertices, lines=np.arange(len(vertices)).reshape(-1, 2))
-        else:
-            vertices, normals, triangles = ref.tube_mesh(a, b, self.params.tube_radius)
-            write_mesh(path, vertices, triangles, normals=normals)
+        vertices = np.stack([a, b], axis=1).reshape(-1, 3)
+        write_mesh(path, Mesh(vertices, np.zeros((0, 3))), lines=np.arange(len(vertices)).reshape(-1, 2))
 
     # }}}
 
@@ -404,8 +416,9 @@ class Params(GrowthParams):
     (cell = the larger of influence and kill distance): same results, far fewer distance tests."""
     render: str = param("lines", choices=("lines", "tubes"), live=True)
     """How the view draws the edges: additive lines (book: Line scene, Edge.shader) or capsules (TubularEdge scene)."""
-    object_scale: float = param(6.0, 0.0, lo_open=True, live=True)
-    """Drawing scale of the cloud (book: the SpaceColonization object's transform), render only."""
+    object_scale: float = param(6.0, 0.0, 1e4, lo_open=True, live=True)
+    """Drawing scale of the cloud (book: the SpaceColonization object's transform), render only.
+    Up to 1e4: float32 positions keep 1e-3."""
 
     @property
     def unit(self) -> float:

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geometry import space_colonization_ref as ref
+from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
 from ..scene import Params as BaseParams
 from ..scene import Scene, check_dt, param
@@ -35,38 +36,44 @@ class Params(BaseParams):
     crown_points: tuple[int, int, int] = param((800, 300, 50), 0, 1 << 20)
     """Points of the three crown clouds (blog demo: generateAttractionPoints(800, 75, 50 ...), (300, 90, 75 ...),
     (50, 100, 90 ...))."""
-    aspect: float = param(2.0, 0.0, lo_open=True)
-    """Vertical stretch of the crown clouds (blog: pAspect)."""
-    offset_y: float = 30.0
-    """Height of the crown clouds' base (blog: pOffsetY)."""
-    trunk_height: float = 30.0
-    """The trunk: growBranch(0, (0, trunk_height, 0)) before the first iteration."""
-    max_distance: float = param(100.0, 0.0, lo_open=True)
-    """A point pulls its closest vertex within this distance (blog: pMaxDistance, the paper's d_i)."""
-    branch_size: float = param(2.0, 0.0, lo_open=True)
-    """Length of every new branch (blog: pBranchSize, the paper's D)."""
-    cut_off_distance: float = param(10.0, 0.0, lo_open=True)
-    """A point this close to its closest vertex is removed (blog: pCutOffDistance, the paper's d_k)."""
-    bias: tuple[float, float, float] = (0.1, 0.2, 0.0)
-    """Added to every new branch after the normalised step (blog: pBias)."""
+    aspect: float = param(2.0, 0.0, 100.0, lo_open=True)
+    """Vertical stretch of the crown clouds (blog: pAspect). Up to 100."""
+    offset_y: float = param(30.0, -1e4, 1e4)
+    """Height of the crown clouds' base (blog: pOffsetY).
+    Within 1e4: the view and the .npz keep float32 positions to 1e-3."""
+    trunk_height: float = param(30.0, -1e4, 1e4)
+    """The trunk: growBranch(0, (0, trunk_height, 0)) before the first iteration.
+    Within 1e4: the view and the .npz keep float32 positions to 1e-3."""
+    max_distance: float = param(100.0, 0.0, 1e4, lo_open=True)
+    """A point pulls its closest vertex within this distance (blog: pMaxDistance, the paper's d_i).
+    Up to 1e4: the view and the .npz keep float32 positions to 1e-3."""
+    branch_size: float = param(2.0, 0.0, 1e4, lo_open=True)
+    """Length of every new branch (blog: pBranchSize, the paper's D).
+    Up to 1e4: the view and the .npz keep float32 positions to 1e-3."""
+    cut_off_distance: float = param(10.0, 0.0, 1e4, lo_open=True)
+    """A point this close to its closest vertex is removed (blog: pCutOffDistance, the paper's d_k).
+    Up to 1e4: the view and the .npz keep float32 positions to 1e-3."""
+    bias: tuple[float, float, float] = param((0.1, 0.2, 0.0), -1e4, 1e4)
+    """Added to every new branch after the normalised step (blog: pBias).
+    Within 1e4: the view and the .npz keep float32 positions to 1e-3."""
     root_points: int = param(100, 0, 1 << 20)
     """Points of the roots cloud generated when the crown is done (blog demo: 100, 50, 10, 0.2, -3)."""
-    root_outer: float = param(50.0, 0.0, lo_open=True)
-    """Outer radius of the roots cloud."""
-    root_inner: float = param(10.0, 0.0)
-    """Inner radius of the roots cloud."""
-    root_aspect: float = param(0.2, 0.0, lo_open=True)
-    """Vertical stretch of the roots cloud."""
-    root_offset_y: float = -3.0
-    """Base height of the roots cloud."""
-    root_max_distance: float = param(25.0, 0.0, lo_open=True)
-    """pMaxDistance of the roots stage."""
-    root_branch_size: float = param(2.0, 0.0, lo_open=True)
-    """pBranchSize of the roots stage."""
-    root_cut_off_distance: float = param(5.0, 0.0, lo_open=True)
-    """pCutOffDistance of the roots stage."""
-    root_bias: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    """pBias of the roots stage."""
+    root_outer: float = param(50.0, 0.0, 1e4, lo_open=True)
+    """Outer radius of the roots cloud. Up to 1e4: the view and the .npz keep float32 positions to 1e-3."""
+    root_inner: float = param(10.0, 0.0, 1e4)
+    """Inner radius of the roots cloud. Up to 1e4: the view and the .npz keep float32 positions to 1e-3."""
+    root_aspect: float = param(0.2, 0.0, 100.0, lo_open=True)
+    """Vertical stretch of the roots cloud. Up to 100."""
+    root_offset_y: float = param(-3.0, -1e4, 1e4)
+    """Base height of the roots cloud. Within 1e4: the view and the .npz keep float32 positions to 1e-3."""
+    root_max_distance: float = param(25.0, 0.0, 1e4, lo_open=True)
+    """pMaxDistance of the roots stage. Up to 1e4: the view and the .npz keep float32 positions to 1e-3."""
+    root_branch_size: float = param(2.0, 0.0, 1e4, lo_open=True)
+    """pBranchSize of the roots stage. Up to 1e4: the view and the .npz keep float32 positions to 1e-3."""
+    root_cut_off_distance: float = param(5.0, 0.0, 1e4, lo_open=True)
+    """pCutOffDistance of the roots stage. Up to 1e4: the view and the .npz keep float32 positions to 1e-3."""
+    root_bias: tuple[float, float, float] = param((0.0, 0.0, 0.0), -1e4, 1e4)
+    """pBias of the roots stage. Within 1e4: the view and the .npz keep float32 positions to 1e-3."""
     clear_leftovers: bool = False
     """Drop the crown's stuck points before the roots stage (blog: pClear false keeps them)."""
     repeat_guard: bool = True
@@ -75,9 +82,11 @@ class Params(BaseParams):
     max_iterations: int = param(2000, 1, 1 << 20)
     """Iterations per stage at most (ugpcl)."""
 
+    limits = ("root_inner < root_outer",)
+
     def check(self) -> None:
         if self.root_inner >= self.root_outer:
-            raise ValueError(f"root_inner must be < root_outer, got {self.root_inner} >= {self.root_outer}")
+            raise self.broken(self.limits[0])
 
 
 class Simulation(BaseSimulation):
@@ -155,10 +164,13 @@ class Simulation(BaseSimulation):
             "stalled (crown, roots)": tuple(bool(s) for s in self.stalled),
         }
 
+    def mesh(self) -> Mesh:
+        """The tree's vertices (blog units) and no triangles: the blog's tree is line segments (``export_mesh``)."""
+        return Mesh(self.tree.vertices, np.zeros((0, 3)))
+
     def export_mesh(self, path) -> None:
-        """--mesh: OBJ polylines of the segments (blog units)."""
-        segments = np.asarray(self.tree.segments, np.int64).reshape(-1, 2)
-        write_mesh(path, self.tree.vertices, lines=segments)
+        """--mesh: the segments as lines between ``mesh()``'s vertices (.obj or .glb; .ply holds no lines)."""
+        write_mesh(path, self.mesh(), lines=np.asarray(self.tree.segments, np.int64).reshape(-1, 2))
 
 
 SCENES = [

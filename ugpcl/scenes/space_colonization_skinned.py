@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geometry import skinned_figure
-from ..scene import Scene, check_dt, param
+from ..scene import ParamError, Scene, check_dt, param
 from .space_colonization import GrowthParams, GrowthSimulation
 
 # {{{ records (clkernels/include/space_colonization.h)
@@ -74,12 +74,12 @@ class Params(GrowthParams):
     """Darts thrown around a sample before it is retired (VolumeSampler's Poisson sampling)."""
     unit_scale: float = param(2.5, 1.0, 10.0)
     """Distance unit = voxel size x unit_scale (book: unitScale)."""
-    anim_time: float = param(0.0, 0.0)
-    """Animation clock at reset, s of the clip."""
-    anim_speed: float = param(0.35, 0.0, live=True)
-    """Clip seconds per second (book scene: Animator speed 0.35)."""
-    anim_period: float = param(2.4, 0.1, live=True)
-    """Length of the dance loop, clip seconds."""
+    anim_time: float = param(0.0, 0.0, 1e6)
+    """Animation clock at reset, s of the clip. Up to 1e6 s: float32 time still resolves 1/16 s."""
+    anim_speed: float = param(0.35, 0.0, 1e3, live=True)
+    """Clip seconds per second (book scene: Animator speed 0.35). Up to 1e3."""
+    anim_period: float = param(2.4, 0.1, 1e4, live=True)
+    """Length of the dance loop, clip seconds. Up to 1e4 s."""
     animate: bool = param(True, live=True)
     """Play the animation (false: frozen at the current clip time). Growth never depends on it."""
 
@@ -115,6 +115,11 @@ class Simulation(GrowthSimulation):
     def _build_figure(self, key) -> None:
         rt = self.runtime
         cloud, self.voxel_unit = figure_cloud(*key)
+        if not len(cloud):
+            raise ParamError(
+                f"resolution={key[0]} with sample_distance={key[1]} puts no attraction point inside the figure; "
+                "raise resolution or lower sample_distance"
+            )
         self.figure_key = key
         self.cloud = cloud
         self.attraction_count = len(cloud)

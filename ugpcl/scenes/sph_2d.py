@@ -49,36 +49,43 @@ LOCAL_SIZES = (1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024)
 class Params(BaseParams):
     particle_num: int = param(8192, 2, 1 << 20)
     """Number of particles N (book: particleNum, NUM_1K..NUM_8K; any N >= 2 here)."""
-    smoothlen: float = param(0.5, 0.0, lo_open=True, live=True)
-    """Kernel radius h, world units: particles closer than h interact (book: smoothlen, "particle radius")."""
-    pressure_stiffness: float = param(0.57, 0.0, live=True)
-    """Tait coefficient B of p = B max((rho/rho0)^7 - 1, 0) (book: pressureStiffness, "Becker's coefficient")."""
-    rest_density: float = param(4.0, 0.0, lo_open=True, live=True)
-    """Rest density rho0, mass per area (book: restDensity)."""
-    particle_mass: float = param(0.08, 0.0, lo_open=True, live=True)
-    """Mass of every particle (book: particleMass), folded into the kernel coefficients."""
-    viscosity: float = param(3.0, 0.0, live=True)
-    """Viscosity coefficient mu (book: viscosity)."""
+    smoothlen: float = param(0.5, 1e-4, 1e4, live=True)
+    """Kernel radius h, world units: particles closer than h interact (book: smoothlen, "particle radius").
+    1e-4 to 1e4: the kernel coefficients hold smoothlen^8 and 1/smoothlen^8 in float32."""
+    pressure_stiffness: float = param(0.57, 0.0, 1e6, live=True)
+    """Tait coefficient B of p = B max((rho/rho0)^7 - 1, 0) (book: pressureStiffness, "Becker's coefficient").
+    Up to 1e6: B times the Tait term stays finite."""
+    rest_density: float = param(4.0, 1e-3, 1e6, live=True)
+    """Rest density rho0, mass per area (book: restDensity). 1e-3 to 1e6: the Tait term takes (rho/rho0)^7."""
+    particle_mass: float = param(0.08, 0.0, 1e4, lo_open=True, live=True)
+    """Mass of every particle (book: particleMass), folded into the kernel coefficients.
+    Up to 1e4: m 4 / (pi h^8) stays finite at the smallest smoothlen."""
+    viscosity: float = param(3.0, 0.0, 1e4, live=True)
+    """Viscosity coefficient mu (book: viscosity). Up to 1e4: the viscosity term stays finite in float32."""
     max_allowable_timestep: float = param(1.0 / 240.0, 0.0, 1.0 / 120.0, lo_open=True, live=True)
     """Largest sub-step dt, s; the sub-step is min(this, frame time) (book: maxAllowableTimestep; 1/60 explodes)."""
-    wall_stiffness: float = param(3000.0, 0.0, live=True)
-    """Penalty wall strength: acceleration per unit of distance outside the box, 1/s^2 (book: wallStiffness)."""
+    wall_stiffness: float = param(3000.0, 0.0, 5e4, live=True)
+    """Penalty wall strength: acceleration per unit of distance outside the box, 1/s^2 (book: wallStiffness).
+    Up to 5e4: explicit Euler stays stable while max_allowable_timestep * sqrt(this) < 2 (1/120 s: 1.9)."""
     iterations: int = param(4, 1, 64, live=True)
     """Sub-steps per frame (book: iterations)."""
-    gravity: tuple[float, float] = param((0.0, -10.0), live=True)
-    """External acceleration, world units/s^2 (book: gravity; the G key toggles it off for weightless fluid)."""
-    range: tuple[float, float] = param((16.0, 9.0), 0.0, lo_open=True)
-    """Box [0, range.x] x [0, range.y], world units (book: range)."""
-    ball_radius: float = param(5.0, 0.0, lo_open=True)
+    gravity: tuple[float, float] = param((0.0, -10.0), -1e4, 1e4, live=True)
+    """External acceleration, world units/s^2 (book: gravity; the G key toggles it off for weightless fluid).
+    Within 1e4: dt * gravity stays finite and resolvable."""
+    range: tuple[float, float] = param((16.0, 9.0), 0.0, 1e4, lo_open=True)
+    """Box [0, range.x] x [0, range.y], world units (book: range). Up to 1e4: float32 positions keep 1e-3."""
+    ball_radius: float = param(5.0, 0.0, 1e4, lo_open=True)
     """Radius of the disc the particles start in, centred in the box (book: Fluid2D.ballRadius); dam_break keeps its
-    area."""
-    mouse_interaction_radius: float = param(1.5, 0.0, lo_open=True, live=True)
-    """Particles closer than this to the held mouse are pushed away, world units (book: MouseInteractionRadius)."""
-    mouse_gain: float = param(100.0, 0.0, live=True)
-    """Push per unit of depth inside the mouse radius, 1/s^2 (book: the literal 100 in IntegrateCS)."""
-    mouse: tuple[float, float, int] = param((8.0, 4.5, 0), live=True)
+    area. Up to 1e4: float32 positions keep 1e-3."""
+    mouse_interaction_radius: float = param(1.5, 0.0, 1e4, lo_open=True, live=True)
+    """Particles closer than this to the held mouse are pushed away, world units (book: MouseInteractionRadius).
+    Up to 1e4: float32 positions keep 1e-3."""
+    mouse_gain: float = param(100.0, 0.0, 5e4, live=True)
+    """Push per unit of depth inside the mouse radius, 1/s^2 (book: the literal 100 in IntegrateCS).
+    Up to 5e4: explicit Euler stays stable while max_allowable_timestep * sqrt(this) < 2 (1/120 s: 1.9)."""
+    mouse: tuple[float, float, int] = param((8.0, 4.5, 0), -1e6, 1e6, live=True)
     """Scripted mouse for headless runs: hold the button at (x, y) for the first N frames after reset (0: never;
-    --set mouse=x,y,frames)."""
+    --set mouse=x,y,frames). Within 1e6: far outside any box, still finite in float32."""
     start: str = param("ball", choices=("ball", "dam_break"))
     """Initial particles: uniform in the centred disc (book), or the same area as a column against the left wall."""
     variant: str = param("fixed", choices=("fixed", "book"), live=True)
@@ -88,14 +95,17 @@ class Params(BaseParams):
     """Neighbour search: the book's loops over all N, or the uniform grid (DensityCS_grid/ForceCS_grid)."""
     local_size: int = param(256, choices=LOCAL_SIZES)
     """Work-group size (book: THREAD_SIZE_X = 1024); lowered to what the device allows."""
-    particle_radius: float = param(0.05, 0.0, lo_open=True, live=True)
-    """Half-size of each particle's billboard, world units, render only (book: FluidRenderer particleRadius)."""
+    particle_radius: float = param(0.05, 0.0, 1e4, lo_open=True, live=True)
+    """Half-size of each particle's billboard, world units, render only (book: FluidRenderer particleRadius).
+    Up to 1e4: float32 positions keep 1e-3."""
     water_color: tuple[float, float, float, float] = param((0.0, 0.462, 1.0, 1.0), 0.0, 1.0, live=True)
     """Particle tint RGBA, render only (book: FluidRenderer WaterColor)."""
 
+    limits = ("mouse frames (third number) >= 0",)
+
     def check(self) -> None:
         if self.mouse[2] < 0:
-            raise ValueError(f"mouse frames (third number) must be >= 0, got {self.mouse!r}")
+            raise self.broken(self.limits[0])
 
     # {{{ derived values (book: FluidBase.Update, the "2D kernel coefficients")
 
@@ -335,6 +345,8 @@ class Simulation(BaseSimulation):
         data = self.particles_array()
         density = self.density.get()
         speed_sq = (data["velocity"].astype(np.float64) ** 2).sum(axis=1)
+        with np.errstate(over="ignore"):  # a diverged run's energy is inf in float32: the divergence check says so
+            energy = np.float32(0.5 * self.params.particle_mass * speed_sq.sum())
         return {
             "position": np.ascontiguousarray(data["position"]),
             "velocity": np.ascontiguousarray(data["velocity"]),
@@ -342,8 +354,14 @@ class Simulation(BaseSimulation):
             "pressure": self.pressure.get(),
             "acceleration": self.force.get().view(np.float32).reshape(-1, 2),
             "mean_density": np.float32(density.mean()),
-            "kinetic_energy": np.float32(0.5 * self.params.particle_mass * speed_sq.sum()),
+            "kinetic_energy": energy,
         }
+
+    def restore(self, state: dict[str, np.ndarray]) -> None:
+        shape = np.shape(state["position"])
+        if shape != (self.n, 2):
+            raise ValueError(f"saved position has shape {shape}; particle_num={self.n} makes {(self.n, 2)}")
+        self.set_particles(state["position"], state["velocity"])  # density, pressure, force: recomputed each step
 
     def stats(self) -> dict:
         state = self.state()

@@ -37,7 +37,8 @@ import pyopencl.array as cla
 import pyopencl.cltypes as cltypes
 
 from ..benchmark import seconds_per_call, seconds_per_step
-from ..buffers import PingPong
+from ..buffers import PingPong, put
+from ..resources import Allocation
 from ..runtime import round_up
 from ..scene import Params as BaseParams
 from ..scene import Scene, check_dt, param
@@ -86,24 +87,27 @@ class Params(BaseParams):
     """Screen height in pixels; the grid has height >> lod rows, row 0 at the bottom (the original: Screen.height)."""
     lod: int = param(0, 0, 8)
     """Grid = screen size >> lod (book: lod)."""
-    diff: float = param(10.0, 0.0, live=True)
-    """Density diffusion kappa; a_d = dt*diff*w*h (book: diff; the sample scene's 10, code default 0)."""
-    visc: float = param(20.0, 0.0, live=True)
-    """Kinematic viscosity nu; a_v = dt*visc*w*h (book: visc; the sample scene's 20, code default 0)."""
-    velocity_coef: float = param(2.0, 0.0, live=True)
-    """Gain of the brush's velocity, per second (book: velocityCoef)."""
-    density_coef: float = param(2.0, 0.0, live=True)
-    """Gain of the brush's density, per second (book: densityCoef)."""
+    diff: float = param(10.0, 0.0, 1e6, live=True)
+    """Density diffusion kappa; a_d = dt*diff*w*h (book: diff; the sample scene's 10, code default 0).
+    Up to 1e6: a <= 1.7e13 keeps the Jacobi sums finite in float32."""
+    visc: float = param(20.0, 0.0, 1e6, live=True)
+    """Kinematic viscosity nu; a_v = dt*visc*w*h (book: visc; the sample scene's 20, code default 0).
+    Up to 1e6: a <= 1.7e13 keeps the Jacobi sums finite in float32."""
+    velocity_coef: float = param(2.0, 0.0, 1e4, live=True)
+    """Gain of the brush's velocity, per second (book: velocityCoef). Up to 1e4: the sources stay finite in float32."""
+    density_coef: float = param(2.0, 0.0, 1e4, live=True)
+    """Gain of the brush's density, per second (book: densityCoef). Up to 1e4: the sources stay finite in float32."""
     density_only: bool = param(False, live=True)
     """Skip the velocity step; advect the density by the brush's velocity (book: isDensityOnly)."""
     gs_iterations: int = param(2, 1, 100000, live=True)
     """Jacobi sweeps per diffusion and per pressure solve (book: GS_ITERATE; the listing says 4, the code 2)."""
     source_radius: float = param(0.022, 0.0, 1.0, lo_open=True, live=True)
     """Brush radius in uv units of each axis (book: sourceRadius; the sample scene's 0.022, code default 0.03)."""
-    mouse_clamp: float = param(1.0, 0.0, live=True)
-    """Longest brush move per frame in grid cells: the mouse delta is clamped to it (book: MouseSourceProvider)."""
-    ink_gain: float = param(5.0, 0.0, live=True)
-    """Render only: ink colour = white*(1 - ink_gain*density) (book: Sample.shader)."""
+    mouse_clamp: float = param(1.0, 0.0, 1e4, live=True)
+    """Longest brush move per frame in grid cells: the mouse delta is clamped to it (book: MouseSourceProvider).
+    Up to 1e4 cells, more than the largest grid's side."""
+    ink_gain: float = param(5.0, 0.0, 1e4, live=True)
+    """Render only: ink colour = white*(1 - ink_gain*density) (book: Sample.shader). Up to 1e4."""
     variant: str = param("fixed", choices=("fixed", "book"), live=True)
     """fixed: Stam's divergence, back-trace clamped; book: the original's divergence, no clamp, corner typo."""
     solver: str = param("vol1", choices=("vol1", "vol4"), live=True)
@@ -111,8 +115,8 @@ class Params(BaseParams):
     stroke: str = param("circle", choices=STROKES, live=True)
     """Scripted brush: circle (radius 0.25 around the centre, one turn per 120 frames), line (uv 0.3 -> 0.7 at
     v = 0.5 in 120 frames), figure8, none (not in the book: replaces the mouse headless)."""
-    stroke_frames: int = param(120, 0, live=True)
-    """Frames the scripted stroke holds the brush down from its start; 0 = for the whole run."""
+    stroke_frames: int = param(120, 0, 1 << 30, live=True)
+    """Frames the scripted stroke holds the brush down from its start; 0 = for the whole run. At most 2^30 frames."""
     local_size: tuple[int, int] = param((32, 32), 1, 1024, live=True)
     """Work-group shape of the grid kernels (book: numthreads(32, 32, 1)); halved where the device cannot run it."""
 
@@ -121,12 +125,15 @@ class Params(BaseParams):
         """(w, h) in cells: the screen size >> lod."""
         return self.width >> self.lod, self.height >> self.lod
 
+    limits = ("width >> lod and height >> lod >= 3", f"(width >> lod) * (height >> lod) <= {MAX_CELLS}")
+    """The walls need an interior; every field must fit the device."""
+
     def check(self) -> None:
         w, h = self.grid
         if w < 3 or h < 3:
-            raise ValueError(f"width >> lod and height >> lod must be >= 3 (the walls need an interior), got {w}x{h}")
+            raise self.broken(self.limits[0], f"grid {w}x{h}")
         if w * h > MAX_CELLS:
-            raise ValueError(f"(width >> lod) * (height >> lod) must be <= {MAX_CELLS}, got {w * h}")
+            raise self.broken(self.limits[1], f"{w * h} cells")
 
 
 class Simulation(BaseSimulation):
@@ -134,6 +141,13 @@ class Simulation(BaseSimulation):
 
     Params = Params
     history = ("density", "kinetic_energy")
+
+    @classmethod
+    def allocations(cls, params: Params) -> list[Allocation]:
+        cells = params.grid[0] * params.grid[1]
+        floats = {"velocity": 2, "velocity (write)": 2, "density": 1, "density (write)": 1, "prev": 4,
+                  "prev (write)": 4, "source": 4, "solver": 4}  # the fields of _reset  # fmt: skip
+        return [Allocation(f"{name} field", cells * 4 * n, "width") for name, n in floats.items()]
 
     def _reset(self) -> None:
         p, rt = self.params, self.runtime
@@ -416,6 +430,13 @@ class Simulation(BaseSimulation):
             "divergence": central_divergence(velocity),
             "kinetic_energy": np.float32(kinetic_energy(velocity)),
         }
+
+    def restore(self, state: dict[str, np.ndarray]) -> None:
+        put(self.velocity.read, state["velocity"], "velocity")
+        put(self.density.read, state["density"], "density")
+        put(self.prev.read, state["prev"], "prev")
+        put(self.solver, state["solver"], "solver")
+        put(self.source, state["source"], "source")
 
     def stats(self) -> dict:
         state = self.state()

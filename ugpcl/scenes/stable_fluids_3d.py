@@ -36,7 +36,8 @@ import numpy as np
 import pyopencl.cltypes as cltypes
 
 from ..benchmark import seconds_per_call, seconds_per_step
-from ..buffers import PingPong
+from ..buffers import PingPong, put
+from ..resources import Allocation
 from ..runtime import round_up
 from ..scene import Params as BaseParams
 from ..scene import Scene, check_dt, param
@@ -82,14 +83,18 @@ class Params(BaseParams):
     """Grid cells along y, y = 0 at the bottom (the original takes Screen.height)."""
     depth: int = param(64, 3, 2048)
     """Grid cells along z (book: depth, a serialized field never set in any scene)."""
-    diff: float = param(10.0, 0.0, live=True)
-    """Density diffusion coefficient kappa; a_d = dt*diff*w*h*d (book: diff; scene 10, code default 0)."""
-    visc: float = param(20.0, 0.0, live=True)
-    """Kinematic viscosity nu; a_v = dt*visc*w*h*d (book: visc; scene 20, code default 0)."""
-    velocity_coef: float = param(2.0, 0.0, live=True)
-    """Gain of the source's velocity, per second (book: velocityCoef; 2D sample scene 2; see SCENE_DEFAULTS)."""
-    density_coef: float = param(2.0, 0.0, live=True)
-    """Gain of the source's density, per second (book: densityCoef; scene 2)."""
+    diff: float = param(10.0, 0.0, 1e6, live=True)
+    """Density diffusion coefficient kappa; a_d = dt*diff*w*h*d (book: diff; scene 10, code default 0).
+    Up to 1e6: a <= 3.4e13 keeps the Jacobi sums finite in float32."""
+    visc: float = param(20.0, 0.0, 1e6, live=True)
+    """Kinematic viscosity nu; a_v = dt*visc*w*h*d (book: visc; scene 20, code default 0).
+    Up to 1e6: a <= 3.4e13 keeps the Jacobi sums finite in float32."""
+    velocity_coef: float = param(2.0, 0.0, 1e4, live=True)
+    """Gain of the source's velocity, per second (book: velocityCoef; 2D sample scene 2; see SCENE_DEFAULTS).
+    Up to 1e4: the sources stay finite in float32."""
+    density_coef: float = param(2.0, 0.0, 1e4, live=True)
+    """Gain of the source's density, per second (book: densityCoef; scene 2).
+    Up to 1e4: the sources stay finite in float32."""
     density_only: bool = param(False, live=True)
     """Skip the velocity step and advect the density by the source's velocity (book: isDensityOnly)."""
     gs_iterations: int = param(2, 1, 4096, live=True)
@@ -97,8 +102,9 @@ class Params(BaseParams):
     emitter: bool = param(True, live=True)
     """Scripted source on: a continuous spherical emitter, headless runs' stand-in for a source (not in the book: its
     sample has no 3D scene)."""
-    emitter_frames: int = param(0, 0, live=True)
-    """Frames the emitter blows from the start; 0 = the whole run (120: a puff, then the smoke drifts)."""
+    emitter_frames: int = param(0, 0, 1 << 30, live=True)
+    """Frames the emitter blows from the start; 0 = the whole run (120: a puff, then the smoke drifts).
+    At most 2^30 frames."""
     emitter_center: tuple[float, float, float] = param((0.5, 0.15, 0.5), 0.0, 1.0, live=True)
     """Centre c of the spherical emitter in uvw units, (0, 0, 0) = the grid's bottom-left-front corner."""
     emitter_direction: tuple[float, float, float] = param((0.0, 1.0, 0.0), -1.0, 1.0, live=True)
@@ -109,13 +115,15 @@ class Params(BaseParams):
     """fixed: Stam's divergence, back-trace clamped to the grid; book: the original's divergence and no clamp."""
     local_size: tuple[int, int, int] = param((8, 8, 4), 1, 1024)
     """Work-group shape of the grid kernels (book: numthreads(8, 8, 4)); halved where the device cannot run it."""
-    absorption: float = param(80.0, 0.0, lo_open=True, live=True)
-    """Render only: extinction of the ray-marched smoke per unit density per box length."""
+    absorption: float = param(80.0, 0.0, 1e6, lo_open=True, live=True)
+    """Render only: extinction of the ray-marched smoke per unit density per box length. Up to 1e6."""
+
+    limits = (f"width*height*depth <= {MAX_CELLS}",)
 
     def check(self) -> None:
         cells = self.width * self.height * self.depth
         if cells > MAX_CELLS:
-            raise ValueError(f"width*height*depth must be <= {MAX_CELLS}, got {cells}")
+            raise self.broken(self.limits[0], f"{cells} cells")
 
 
 class Simulation(BaseSimulation):
@@ -123,6 +131,13 @@ class Simulation(BaseSimulation):
 
     Params = Params
     history = ("density", "kinetic_energy")
+
+    @classmethod
+    def allocations(cls, params: Params) -> list[Allocation]:
+        cells = params.width * params.height * params.depth
+        floats = {"velocity": 4, "velocity (write)": 4, "density": 1, "density (write)": 1, "prev": 4,
+                  "prev (write)": 4, "source": 4, "solver": 4}  # the fields of _reset  # fmt: skip
+        return [Allocation(f"{name} field", cells * 4 * n, "width") for name, n in floats.items()]
 
     def _reset(self) -> None:
         p, rt = self.params, self.runtime
@@ -382,6 +397,14 @@ class Simulation(BaseSimulation):
             "divergence": central_divergence(velocity),
             "kinetic_energy": np.float32(0.5 * np.mean(np.sum(velocity.astype(np.float64) ** 2, axis=-1))),
         }
+
+    def restore(self, state: dict[str, np.ndarray]) -> None:
+        velocity = np.concatenate([state["velocity"], np.zeros((*self.shape, 1), np.float32)], -1)  # (u, v, w, 0)
+        put(self.velocity.read, velocity, "velocity")
+        put(self.density.read, state["density"], "density")
+        put(self.prev.read, state["prev"], "prev")
+        put(self.solver, state["solver"], "solver")
+        put(self.source, state["source"], "source")
 
     def stats(self) -> dict:
         state = self.state()

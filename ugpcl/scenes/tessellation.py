@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..benchmark import seconds_per_step
+from ..geometry.mesh import Mesh, vertex_normals
 from ..geometry.mesh_io import write_mesh
 from ..geometry.transforms import euler_matrix, perspective
 from ..scene import Params as BaseParams
@@ -195,14 +196,15 @@ def fractional_odd_triangles(level: float) -> int:
 class Params(BaseParams):
     grid: int = param(256, 8, 4096)
     """Fluid cells per side, a square grid under the square plane (the original: the window >> lod)."""
-    diff: float = param(10.0, 0.0, live=True)
-    """Density diffusion (book: diff; FuidTessellation's Solver)."""
-    visc: float = param(100.0, 0.0, live=True)
-    """Velocity diffusion (book: visc)."""
-    velocity_coef: float = param(4.0, 0.0, live=True)
-    """Brush velocity gain (book: velocityCoef)."""
-    density_coef: float = param(6.0, 0.0, live=True)
-    """Brush density gain (book: densityCoef)."""
+    diff: float = param(10.0, 0.0, 1e6, live=True)
+    """Density diffusion (book: diff; FuidTessellation's Solver).
+    Up to 1e6: a <= 1.7e13 keeps the Jacobi sums finite in float32."""
+    visc: float = param(100.0, 0.0, 1e6, live=True)
+    """Velocity diffusion (book: visc). Up to 1e6: a <= 1.7e13 keeps the Jacobi sums finite in float32."""
+    velocity_coef: float = param(4.0, 0.0, 1e4, live=True)
+    """Brush velocity gain (book: velocityCoef). Up to 1e4: the sources stay finite in float32."""
+    density_coef: float = param(6.0, 0.0, 1e4, live=True)
+    """Brush density gain (book: densityCoef). Up to 1e4: the sources stay finite in float32."""
     density_only: bool = param(False, live=True)
     """Skip the velocity step, advect by the brush (book: isDensityOnly)."""
     gs_iterations: int = param(2, 1, 100000, live=True)
@@ -212,8 +214,9 @@ class Params(BaseParams):
     stroke: str = param("circle", choices=STROKES, live=True)
     """Scripted brush path (not in the book: a headless stand-in for the mouse): circle, line, figure8 or none; the
     mouse overrides it."""
-    stroke_frames: int = param(0, 0, live=True)
-    """Frames the scripted stroke holds the brush down; 0 = every frame (the button held down throughout)."""
+    stroke_frames: int = param(0, 0, 1 << 30, live=True)
+    """Frames the scripted stroke holds the brush down; 0 = every frame (the button held down throughout).
+    At most 2^30 frames."""
     edge_length: float = param(2.0, 2.0, 50.0, live=True)
     """Target length of a tessellated edge on screen, pixels (book: _EdgeLength; TessellationSurface.mat 2)."""
     displacement: float = param(0.5, 0.0, 30.0, live=True)
@@ -311,9 +314,14 @@ class Simulation(BaseSimulation):
         """(grid, grid) float32: the displacement texture (row 0 = v near 0)."""
         return self.fluid.density.read.get()
 
-    def mesh(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def mesh(self) -> Mesh:
+        """The displaced plane (the mesh_level grid of ``displace_plane_grid``) in world space, with area-weighted
+        normals of the displaced surface. Open, so not watertight."""
         p = self.params
-        return displace_plane_grid(self.density(), p.mesh_level, p.displacement, p.negative, p.linear_filter)
+        vertices, triangles, _ = displace_plane_grid(
+            self.density(), p.mesh_level, p.displacement, p.negative, p.linear_filter
+        )
+        return Mesh(vertices, triangles, vertex_normals(vertices, triangles))
 
     def tess_factors(self) -> np.ndarray:
         """(200, 4) float32: the TCS's outer[0..2], inner for the scene camera on a screen of screen_size."""
@@ -324,14 +332,14 @@ class Simulation(BaseSimulation):
 
     def state(self) -> dict[str, np.ndarray]:
         fluid = self.fluid.state()
-        vertices, triangles, _ = self.mesh()
+        mesh = self.mesh()
         return {
             "density": fluid["density"],
             "velocity": fluid["velocity"],
             "stroke_uv": np.asarray(self.stroke_uv, np.float32).reshape(-1, 2),
             "stroke_vel": np.asarray(self.stroke_vel, np.float32).reshape(-1, 2),
-            "mesh_vertices": vertices,
-            "mesh_triangles": triangles,
+            "mesh_vertices": mesh.vertices,
+            "mesh_triangles": mesh.faces,
             "tess_factors": self.tess_factors(),
         }
 
@@ -352,9 +360,8 @@ class Simulation(BaseSimulation):
         }
 
     def export_mesh(self, path) -> None:
-        """The displaced plane (mesh_level grid) as .obj/.ply."""
-        vertices, triangles, normal = self.mesh()
-        write_mesh(path, vertices, triangles)
+        """--mesh: ``mesh()`` as .obj, .ply or .glb."""
+        write_mesh(path, self.mesh())
 
     # }}}
 

@@ -1,0 +1,82 @@
+"""Device memory a parameter set asks for, compared with what the device can give, before anything is allocated.
+
+A Simulation lists its large buffers and images with ``allocations(params)``; each names the parameter that
+sizes it. ``check(simulation, params, device)`` raises ``ResourceError`` with one line naming that parameter, its
+value and the largest value this device takes (found by bisection over the parameter's range, the other
+parameters kept), rather than letting ``clCreateBuffer`` fail half-way through a reset.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import pyopencl as cl
+
+
+class ResourceError(ValueError):
+    """The parameters ask for more memory, or a larger image, than the device has."""
+
+
+@dataclass(frozen=True)
+class Allocation:
+    what: str
+    """What the buffer holds, for the message (``triangle buffer``)."""
+    nbytes: int
+    param: str
+    """The parameter that sizes it (an int field of the scene's Params)."""
+    image: tuple[int, ...] | None = None
+    """Width, height (and depth) when it is an image: checked against the device's image limits too."""
+
+
+def gib(nbytes: int) -> str:
+    return f"{nbytes / 2**30:.2f} GiB" if nbytes >= 2**30 else f"{nbytes / 2**20:.1f} MiB"
+
+
+def problem(allocations: list[Allocation], device: cl.Device) -> tuple[Allocation | None, str]:
+    """The first allocation the device cannot hold and what it needs beyond the limit ((None, '') when all fit)."""
+    for a in allocations:
+        if a.nbytes > device.max_mem_alloc_size:
+            return a, f"a {gib(a.nbytes)} {a.what}, over the {gib(device.max_mem_alloc_size)} one buffer may hold"
+        if a.image is not None:
+            limits = (
+                (device.image2d_max_width, device.image2d_max_height)
+                if len(a.image) == 2
+                else (device.image3d_max_width, device.image3d_max_height, device.image3d_max_depth)
+            )
+            if any(s > m for s, m in zip(a.image, limits, strict=True)):
+                size, most = "x".join(map(str, a.image)), "x".join(map(str, limits))
+                return a, f"a {size} {a.what}, over the {most} an image may have"
+    total = sum(a.nbytes for a in allocations)
+    if allocations and total > device.global_mem_size:
+        biggest = max(allocations, key=lambda a: a.nbytes)
+        return biggest, f"{gib(total)} of buffers, over the {gib(device.global_mem_size)} of device memory"
+    return None, ""
+
+
+def check(simulation, params, device: cl.Device) -> None:
+    """ResourceError naming the parameter and the largest value of it that fits, if ``params`` do not fit."""
+    bad, need = problem(simulation.allocations(params), device)
+    if bad is None:
+        return
+    value = getattr(params, bad.param)
+    field = next(f for f in dataclasses.fields(params) if f.name == bad.param)
+    lo = field.metadata.get("lo") or 0
+
+    def fits(v: int) -> bool:
+        try:
+            candidate = params.replace(**{bad.param: v})
+        except ValueError:  # a cross-field limit of Params: not a value the user could take either
+            return False
+        return problem(simulation.allocations(candidate), device)[0] is None
+
+    best = None
+    low, high = lo, value - 1  # bisection: sizes grow with the parameter
+    while low <= high:
+        mid = (low + high) // 2
+        if fits(mid):
+            best, low = mid, mid + 1
+        else:
+            high = mid - 1
+    largest = f"the largest {bad.param} it takes is {best}" if best is not None else f"no {bad.param} fits"
+    raise ResourceError(f"{bad.param}={value} needs {need} on {device.name.strip()}; {largest}")
