@@ -1,0 +1,414 @@
+"""Triangulation by ear clipping: polygons with holes and nested islands cut into triangles (vol.4 ch.5;
+docs/chapters/16-ear-clipping.md).
+
+The book's algorithm runs on the host (``ugpcl.geometry.ear_clipping``): containment tree, holes bridged into their
+outer ring, FIFO ear list. A reset triangulates the scene's rings (a preset, ``input=rings.json`` or the rings drawn
+in the view); each step then reveals ``clips_per_step`` more clipped ears, so the view replays the ear list. The
+.npz and ``--mesh`` always hold the whole result. One kernel, ``EarClipping`` (clkernels/ear_clipping.cl), clips
+many small polygons at once, one work-item each (``ear_clip_batch``; ``ugpcl bench ear_clipping``).
+
+Differences from the book: rings are sorted exactly by area and by right-most x (``variant=book`` uses the book's
+truncating comparator); a hole that no bridge reaches is reported (the book drops it silently); ``delaunay=true``
+flips the result into the constrained Delaunay triangulation; the glyph preset outlines text with matplotlib's
+bundled DejaVu Sans (the chapter names font outlines as the use).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+
+from ..geometry import ear_clipping as ec
+from ..geometry.mesh import Mesh
+from ..geometry.mesh_io import write_mesh
+from ..scene import Params as BaseParams
+from ..scene import Scene, check_dt, param
+from ..scene import Simulation as BaseSimulation
+
+MAX_BATCH_VERTICES = 64
+"""Largest polygon of the batch kernel (its MAX_VERTICES: private index ring and ear list)."""
+RECORD_LIMIT = 4096
+"""Scenes with more vertices than this keep no ear-list trace (it grows as vertices x clips)."""
+MAX_TEXT = 64
+"""Longest text of the glyph preset."""
+
+
+# {{{ presets (spec 16, section 8; TriangulationTest.cs for nested; the chapter's fig. 5.6 for example)
+
+
+def star(points: int, outer: float, inner: float) -> np.ndarray:
+    """A star of ``points`` tips, clockwise from the top: 2 * points vertices alternating between the radii."""
+    angle = np.pi / 2 - np.arange(2 * points) * np.pi / points
+    radius = np.where(np.arange(2 * points) % 2 == 0, outer, inner)
+    return np.column_stack([radius * np.cos(angle), radius * np.sin(angle)])
+
+
+def rect(x0: float, y0: float, x1: float, y1: float) -> list:
+    """An axis-aligned rectangle, clockwise (y up), as the TriangulationTest rings are given."""
+    return [(x0, y0), (x0, y1), (x1, y1), (x1, y0)]
+
+
+def comb() -> list:
+    ring = [(0, 0), (0, 3)]
+    for i in range(5):
+        ring += [(2 * i + 1, 3), (2 * i + 1, 1), (2 * i + 2, 1), (2 * i + 2, 3)]
+    return ring + [(11, 3), (11, 0)]
+
+
+PRESETS = {
+    "nested": lambda: [
+        rect(-2, -2, 5, 2),
+        rect(-1, -1, 1, 1),
+        rect(-0.5, -0.5, 0.5, 0.5),
+        rect(2, -1, 4, 1),
+        rect(2.25, -0.75, 3, -0.25),
+        rect(3, 0.25, 3.75, 0.75),
+    ],
+    "example": lambda: [[(-2, -5), (-3, -2), (-1, 3), (-2, 6), (4, 4), (3, 4), (4, 3)]],
+    "star5": lambda: [star(5, 2.0, 0.8)],
+    "star12": lambda: [star(12, 3.0, 1.2)],
+    "comb": lambda: [comb()],
+    "holes": lambda: [rect(0, 0, 10, 10), rect(1, 1, 3, 3), rect(5, 5, 8, 8), rect(6, 1, 9, 2)],
+    "notch": lambda: [[(0, 0), (0, 10), (10, 10), (10, 6), (6, 5), (10, 4), (10, 0)], rect(2, 4, 4, 5.5)],
+    "square": lambda: [rect(0, 0, 2, 2)],
+    "collinear": lambda: [[(0, 0), (0, 1), (0, 2), (2, 2), (2, 0)]],
+    "two_squares": lambda: [rect(0, 0, 1, 1), rect(2, 0, 3, 1)],
+    "glyph": None,  # glyph_rings(params.text, params.text_size)
+    "draw": lambda: [],
+}
+"""Ring sets by name: the book's TriangulationTest (nested), its worked example of the ear list (example, fig. 5.6),
+the spec's test shapes, text outlines (glyph) and nothing (draw: the DrawTest scene, rings come from the mouse)."""
+
+
+@cache
+def _glyph_rings(text: str, size: float) -> tuple:
+    from matplotlib import get_data_path
+    from matplotlib.font_manager import FontProperties
+    from matplotlib.textpath import TextPath
+
+    font = FontProperties(fname=str(Path(get_data_path()) / "fonts" / "ttf" / "DejaVuSans.ttf"))
+    path = TextPath((0.0, 0.0), text, size=size, prop=font)
+    return tuple(clean_ring(p) for p in path.to_polygons(closed_only=True))
+
+
+def glyph_rings(text: str, size: float = 4.0) -> list[np.ndarray]:
+    """Outlines of ``text`` in matplotlib's bundled DejaVu Sans, ``size`` units per em: the curves flattened by
+    TextPath, letters with their holes (o, p, g ...) as separate rings."""
+    return [r.copy() for r in _glyph_rings(text, float(size)) if len(r) >= 3]
+
+
+def clean_ring(points) -> np.ndarray:
+    """(n, 2) float64 without the closing repeat of the first vertex and without consecutive duplicates."""
+    ring = np.asarray(points, np.float64).reshape(-1, 2)
+    keep = np.any(ring != np.roll(ring, 1, axis=0), axis=1)
+    return ring[keep] if keep.any() else ring[:1]
+
+
+def load_rings(path: str) -> list[np.ndarray]:
+    """``{"rings": [[[x, y], ...], ...]}`` (a bare list of rings is accepted too)."""
+    data = json.loads(Path(path).read_text())
+    rings = data["rings"] if isinstance(data, dict) else data
+    return [clean_ring(r) for r in rings]
+
+
+def save_rings(path, rings) -> None:
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    Path(path).write_text(json.dumps({"rings": [np.asarray(r, float).tolist() for r in rings]}))
+
+
+# }}}
+
+
+@dataclass(frozen=True)
+class Params(BaseParams):
+    preset: str = param("nested", choices=tuple(PRESETS))
+    """The rings to triangulate (nested: the book's TriangulationTest scene; draw: start empty, as DrawTest)."""
+    input: str = ""
+    """Path of a JSON file {"rings": [[[x, y], ...], ...]}; when set it replaces the preset."""
+    text: str = "ugpcl"
+    """Text of the glyph preset (1 to 64 characters)."""
+    text_size: float = param(4.0, 0.0, 1000.0, lo_open=True)
+    """Em size of the glyph preset, world units."""
+    variant: str = param("fixed", choices=("fixed", "book"))
+    """fixed: exact, stable sorts by area and right-most x; book: the book's FloorToInt comparator for both."""
+    delaunay: bool = False
+    """Flip the ear-clipped triangles into the constrained Delaunay triangulation (Lawson flips; not in the book)."""
+    compare_earcut: bool = False
+    """Also triangulate with mapbox-earcut (earcut_triangles, earcut_area in the .npz)."""
+    clips_per_step: int = param(1, 1, 1 << 20, live=True)
+    """Clipped ears the replay reveals per step (the view's animation speed)."""
+
+    def check(self) -> None:
+        if not 1 <= len(self.text) <= MAX_TEXT:
+            raise ValueError(f"text must have 1 to {MAX_TEXT} characters, got {len(self.text)}")
+        if self.input and not Path(self.input).is_file():
+            raise ValueError(f"input must be a JSON file of rings, got {self.input!r} (no such file)")
+
+
+class Simulation(BaseSimulation):
+    """A reset triangulates the rings; each step reveals the next ``clips_per_step`` clipped ears."""
+
+    Params = Params
+
+    def _reset(self) -> None:
+        p = self.params
+        if p.input:
+            self.rings = load_rings(p.input)
+        elif p.preset == "glyph":
+            self.rings = glyph_rings(p.text, p.text_size)
+        else:
+            self.rings = [clean_ring(r) for r in PRESETS[p.preset]()]
+        self.triangulate()
+
+    # {{{ the chapter's Triangulate, and the rings drawn in the view (DrawTest)
+
+    def triangulate(self) -> None:
+        """Triangulate every ring; the replay starts again at the first clip."""
+        p = self.params
+        record = sum(len(r) for r in self.rings) <= RECORD_LIMIT
+        self.result = ec.triangulate(self.rings, p.variant, record=record)
+        self.ear_triangles = self.result.triangles
+        self.triangles = ec.delaunay_flip(self.result) if p.delaunay else self.ear_triangles
+        self.clips = 0
+
+    def add_ring(self, points) -> None:
+        """A drawn ring (DrawTest's right click): at least 3 distinct vertices."""
+        ring = clean_ring(points)
+        if len(ring) < 3:
+            raise ValueError(f"a ring needs at least 3 distinct vertices, got {len(ring)}")
+        self.rings.append(ring)
+        self.triangulate()
+
+    def undo_ring(self) -> None:
+        """DrawTest's U: drop the last ring (nothing when there is none; the original throws)."""
+        if self.rings:
+            self.rings.pop()
+            self.triangulate()
+
+    def clear_rings(self) -> None:
+        """DrawTest's C: no rings at all."""
+        self.rings = []
+        self.triangulate()
+
+    # }}}
+
+    def step(self, dt: float | None = None) -> None:
+        dt = check_dt(dt, self.default_dt)
+        self.clips = min(len(self.ear_triangles), self.clips + self.params.clips_per_step)
+        self._advance(dt)
+
+    def seek(self, clip: int) -> None:
+        """Show the first ``clip`` clipped ears (clamped to 0 .. all)."""
+        self.clips = int(np.clip(clip, 0, len(self.ear_triangles)))
+
+    @property
+    def done(self) -> bool:
+        return self.clips >= len(self.ear_triangles)
+
+    def ear_list(self, clip: int | None = None) -> tuple[int, ...]:
+        """The ear list (global vertex indices, head first) when ear number ``clip`` (default: the next) is clipped;
+        empty when done or when the scene was too large to record."""
+        clip = self.clips if clip is None else clip
+        trace = self.result.ear_trace
+        return trace[clip] if trace is not None and clip < len(trace) else ()
+
+    def input_arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """The rings flattened: input_vertices (N, 2), input_ring_offsets (R + 1,)."""
+        offsets = np.cumsum([0] + [len(r) for r in self.rings]).astype(np.int32)
+        vertices = np.concatenate(self.rings) if self.rings else np.zeros((0, 2))
+        return vertices, offsets
+
+    def earcut(self) -> np.ndarray:
+        """mapbox-earcut on every top-level group (outer ring + its holes), as indices into input_vertices."""
+        import mapbox_earcut
+
+        _, offsets = self.input_arrays()
+        found = []
+        for group in self.result.group_rings:
+            rings = [self.rings[i] for i in group]
+            ends = np.cumsum([len(r) for r in rings]).astype(np.uint32)
+            local = mapbox_earcut.triangulate_float64(np.concatenate(rings), ends).astype(np.int64)
+            starts = np.concatenate([[0], ends[:-1]]).astype(np.int64)
+            ring_of = np.searchsorted(ends, local, side="right")  # which ring of the group each index falls in
+            found.append(local - starts[ring_of] + offsets[np.asarray(group)[ring_of]])
+        return np.concatenate(found).reshape(-1, 3).astype(np.int32) if found else np.zeros((0, 3), np.int32)
+
+    def state(self) -> dict[str, np.ndarray]:
+        r = self.result
+        vertices, offsets = self.input_arrays()
+        state = {
+            "vertices": r.vertices,
+            "triangles": self.triangles,
+            "uv": r.uv,
+            "group_offsets": r.group_offsets,
+            "complete": r.complete,
+            "input_vertices": vertices,
+            "input_ring_offsets": offsets,
+            "tree_parent": r.tree_parent,
+            "tree_level": r.tree_level,
+            "area_input": np.float64(ec.input_area(self.rings, r.tree_level)),
+            "area_output": np.float64(np.abs(ec.triangle_signed_areas(r.vertices, self.triangles)).sum()),
+            "clips": np.int32(self.clips),
+        }
+        if self.params.delaunay:
+            state["ear_triangles"] = self.ear_triangles
+        if r.ear_trace is not None:
+            state["ear_trace"] = np.asarray([v for ears in r.ear_trace for v in ears], np.int32)
+            state["ear_trace_offsets"] = np.cumsum([0] + [len(e) for e in r.ear_trace]).astype(np.int32)
+        if self.params.compare_earcut:
+            found = self.earcut()
+            state["earcut_triangles"] = found
+            state["earcut_area"] = np.float64(np.abs(ec.triangle_signed_areas(vertices, found)).sum())
+        return state
+
+    def stats(self) -> dict:
+        r = self.result
+        return {
+            **super().stats(),
+            "rings": len(self.rings),
+            "groups": len(r.complete),
+            "vertices": len(r.vertices),
+            "triangles": len(self.triangles),
+            "complete": bool(r.complete.all()),
+            "dropped holes": len(r.dropped),
+            "clips shown": self.clips,
+        }
+
+    def mesh(self) -> Mesh:
+        """The triangles as a flat mesh at z = 0, facing +z: the book's clockwise triangles (Unity, left-handed,
+        seen from -z) become counter-clockwise ones seen from +z in right-handed glTF/OBJ coordinates."""
+        r = self.result
+        vertices = np.column_stack([r.vertices, np.zeros(len(r.vertices))])
+        normals = np.tile(np.array([0.0, 0.0, 1.0]), (len(r.vertices), 1))
+        return Mesh(vertices, self.triangles[:, ::-1], normals, r.uv)
+
+    def export_mesh(self, path) -> None:
+        """--mesh: the flat mesh (bridge copies kept as separate vertices, as the book's mesh)."""
+        write_mesh(path, self.mesh())
+
+
+# {{{ the batch kernel (not in the book)
+
+
+def ear_clip_batch(runtime, polygons) -> tuple[np.ndarray, np.ndarray]:
+    """Clip many simple clockwise polygons (holes already bridged) at once, one work-item each (EarClipping).
+
+    Returns (triangles (sum(n_i - 2), 3) int32 indices into the concatenated vertices, counts (P,) int32 of rows
+    written per polygon); polygon i's rows start at offsets[i] - 2 i and unwritten rows (incomplete) are -1."""
+    polygons = [np.asarray(p, np.float64).reshape(-1, 2) for p in polygons]
+    sizes = np.array([len(p) for p in polygons], np.int64)
+    if len(polygons) == 0:
+        return np.zeros((0, 3), np.int32), np.zeros(0, np.int32)
+    if sizes.min() < 3 or sizes.max() > MAX_BATCH_VERTICES:
+        raise ValueError(f"polygons must have 3 to {MAX_BATCH_VERTICES} vertices, got {sizes.min()}..{sizes.max()}")
+    offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int32)
+    return _launch_batch(runtime, np.concatenate(polygons), offsets)
+
+
+def _launch_batch(runtime, points: np.ndarray, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    count = len(offsets) - 1
+    program = runtime.program("ear_clipping", MAX_VERTICES=MAX_BATCH_VERTICES)
+    points_d = runtime.to_device(np.ascontiguousarray(points, np.float64))
+    offsets_d = runtime.to_device(offsets)
+    triangles_d = runtime.to_device(np.full((int(offsets[-1]) - 2 * count) * 3, -1, np.int32))
+    counts_d = runtime.zeros(count, np.int32)
+    program.kernel("EarClipping").over(count, 64, points_d, offsets_d, triangles_d, counts_d, np.int32(count))
+    return triangles_d.get().reshape(-1, 3), counts_d.get()
+
+
+def merged_polygons(rings, variant: str = "fixed") -> list[np.ndarray]:
+    """The host's bridging without the clipping: one simple clockwise polygon per group (the batch kernel's input)."""
+    result = ec.triangulate(rings, variant)
+    o = result.group_offsets
+    return [result.vertices[o[g] : o[g + 1]] for g in range(len(o) - 1)]
+
+
+def clip_on_host(polygon: np.ndarray) -> np.ndarray:
+    """The host's InitializeVertices + EarClipping on one merged polygon: its triangles, local indices."""
+    clipper = ec.EarClipper(polygon)
+    clipper.initialize_vertices()
+    found = []
+    while (triangle := clipper.clip()) is not None:
+        found.append(triangle)
+    return np.asarray(found, np.int32).reshape(-1, 3)
+
+
+# }}}
+
+# {{{ bench
+
+
+def glyph_batch(count: int) -> list[np.ndarray]:
+    """``count`` glyph polygons: the merged outlines of the letters a-z and A-Z (DejaVu Sans, em 1), repeated."""
+    letters = "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+    shapes = [m for c in letters for m in merged_polygons(glyph_rings(c, 1.0)) if 3 <= len(m) <= MAX_BATCH_VERTICES]
+    return [shapes[i % len(shapes)] for i in range(count)]
+
+
+def _seconds(fn, repeat: int = 3) -> float:
+    best = float("inf")
+    for _ in range(repeat):
+        start = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
+def bench(runtime, sizes=None) -> list[dict]:
+    """ms and polygons/s: one n-vertex star (n = size) by the host's numpy ear clipping and by mapbox-earcut (C++
+    ear slicing with z-order hashing); then 10^4 glyph outlines (letters, holes bridged on the host beforehand) by the
+    EarClipping kernel (one work-item per polygon, transfers included), by a Python loop over mapbox-earcut and by the
+    host clipper (on the first 500)."""
+    import mapbox_earcut
+
+    sizes = sizes or [100, 1000, 10000]
+    rows = []
+
+    def row(workload, n, polygons, solver, seconds):
+        rows.append(
+            {"workload": workload, "vertices": n, "polygons": polygons, "solver": solver, "ms": seconds * 1e3,
+             "polygons/s": polygons / seconds}
+        )  # fmt: skip
+
+    for n in sizes:
+        ring = star(max(n // 2, 2), 1.0, 0.5)
+        ends = np.array([len(ring)], np.uint32)
+        row("star", len(ring), 1, "host (numpy)", _seconds(lambda r=ring: ec.triangulate([r]), 1 if n > 2000 else 3))
+        row(
+            "star",
+            len(ring),
+            1,
+            "mapbox_earcut",
+            _seconds(lambda r=ring, e=ends: mapbox_earcut.triangulate_float64(r, e)),
+        )
+    glyphs = glyph_batch(10_000)
+    total = sum(len(g) for g in glyphs)
+    points = np.concatenate(glyphs)
+    offsets = np.concatenate([[0], np.cumsum([len(g) for g in glyphs])]).astype(np.int32)
+    _launch_batch(runtime, points, offsets)  # warm-up: the build
+    row("glyphs", total, len(glyphs), "EarClipping kernel", _seconds(lambda: _launch_batch(runtime, points, offsets)))
+    ends = [np.array([len(g)], np.uint32) for g in glyphs]
+    loop = lambda: [mapbox_earcut.triangulate_float64(g, e) for g, e in zip(glyphs, ends, strict=True)]  # noqa: E731
+    row("glyphs", total, len(glyphs), "mapbox_earcut loop", _seconds(loop))
+    few = glyphs[:500]
+    host_loop = _seconds(lambda: [clip_on_host(g) for g in few], 1)
+    row("glyphs", sum(len(g) for g in few), len(few), "host (numpy) loop", host_loop)
+    return rows
+
+
+# }}}
+
+
+SCENES = [
+    Scene(
+        "ear_clipping",
+        Simulation,
+        "Polygons with holes and nested islands triangulated by ear clipping (vol.4 ch.5)",
+        preview={"steps": 1, "preset": "glyph", "clips_per_step": 1 << 20},
+    ),
+]
