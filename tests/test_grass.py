@@ -118,7 +118,7 @@ def constant_maps(height: float, rot: float, wind: float) -> dict[str, np.ndarra
 
 def golden(runtime, rot: float, wind: float, **overrides) -> tuple[np.ndarray, np.ndarray]:
     sim = Simulation(runtime, Params(planes=(1, 1), plane_resolution=1, **overrides), 0)
-    sim.set_mesh(GOLDEN_TRIANGLE, np.identity(4), constant_maps(1.0, rot, wind))
+    sim.set_ground(GOLDEN_TRIANGLE, np.identity(4), constant_maps(1.0, rot, wind))
     state = sim.state()
     return state["blade_pos"][0], state["blade_col"][0]
 
@@ -203,7 +203,7 @@ def test_grass_expand_on_a_tilted_random_mesh(runtime, seed, backend):
     mesh, models, maps = tilted_mesh(seed)
     params = Params(planes=(1, 1), plane_resolution=1, start_time=3.7, wind_time_scale=1.0, backend=backend)
     sim = Simulation(runtime, params, seed)
-    sim.set_mesh(mesh, models, maps)
+    sim.set_ground(mesh, models, maps)
     state = sim.state()
     expected_pos, expected_col, expected_rot = tilted_reference(mesh, models, maps, params, 3.7)
     assert np.abs(expected_rot - 0.5).min() > 1e-4, "a mean rotation this close to 0.5 could round either way"
@@ -265,7 +265,7 @@ def test_pyramid_expand_matches_reference(runtime, seed, backend):
     model[:3, :3] = rng.normal(size=(3, 3))
     model[:3, 3] = rng.normal(size=3)
     sim = PyramidSimulation(runtime, PyramidParams(height=2.5, backend=backend), seed)
-    sim.set_mesh(mesh, model)
+    sim.set_ground(mesh, model)
     state = sim.state()
     expected = np.array([apply(model, pyramid_geom(mesh["pos"][t], 2.5)) for t in mesh["tri"]])
     np.testing.assert_allclose(state["pyr_pos"], expected, atol=1e-5)
@@ -276,8 +276,8 @@ def test_pyramid_expand_matches_reference(runtime, seed, backend):
 
 def test_pyramids_on_the_quad(runtime):
     sim = PyramidSimulation(runtime, PyramidParams(height=1.5), 0)
-    quad = sim.mesh
-    sim.set_mesh(quad, np.identity(4))
+    quad = sim.ground
+    sim.set_ground(quad, np.identity(4))
     pos = sim.state()["pyr_pos"].astype(np.float64)
     assert pos.shape == (2, 12, 3)  # 24 vertices: 4 triangles per input triangle
     for t, triangle in enumerate(quad["tri"]):
@@ -565,7 +565,7 @@ def test_grass_geometry_shader_matches_grass_expand(glr):
     frame((16, 16)).msaa.use()  # transform feedback still wants a complete framebuffer bound
     view.set_uniforms(camera)
     captured = glr.ctx.buffer(reserve=sim.blades * 15 * 7 * 4)  # 5 triangles x 3 vertices x (vec3 + vec4)
-    view.vao.transform(captured, moderngl.TRIANGLES, vertices=len(sim.mesh["tri"]) * 3, instances=len(sim.models))
+    view.vao.transform(captured, moderngl.TRIANGLES, vertices=len(sim.ground["tri"]) * 3, instances=len(sim.models))
     out = np.frombuffer(captured.read(), "f4").reshape(-1, 7)
     captured.release()
     state = sim.state()
@@ -586,7 +586,7 @@ def test_grass_geometry_shader_matches_the_reference_on_a_tilted_mesh(glr, seed)
     mesh, models, maps = tilted_mesh(seed)
 
     def tilted(view):
-        view.sim.set_mesh(mesh, models, maps)
+        view.sim.set_ground(mesh, models, maps)
 
     sim, view, camera, _, primitives = render(
         glr, "grass", prepare=tilted, planes=(1, 1), start_time=3.7, wind_time_scale=1.0
@@ -637,7 +637,7 @@ def test_culling_shows_why_the_book_says_cull_off(glr, rot, front):
     from ugpcl.viewer.camera import OrbitCamera
 
     def one_blade(view):
-        view.sim.set_mesh(GOLDEN_TRIANGLE, np.identity(4), constant_maps(0.2, rot, 0.0))
+        view.sim.set_ground(GOLDEN_TRIANGLE, np.identity(4), constant_maps(0.2, rot, 0.0))
 
     camera = OrbitCamera(target=(0.3, 3.0, 0.0), distance=8.0)
 

@@ -31,7 +31,6 @@ CASES = {
     "grass": (1, ["planes=2,1", "plane_resolution=2"]),
     "grass_pyramid": (1, []),
 }
-MESH_METHOD = {"grass": "expanded_mesh", "grass_pyramid": "expanded_mesh"}  # grass keeps self.mesh for its input
 
 
 def simulate(runtime, name: str, steps: int, pairs: list[str]):
@@ -46,7 +45,7 @@ def simulate(runtime, name: str, steps: int, pairs: list[str]):
 
 
 def scene_mesh(name: str, sim) -> Mesh:
-    return getattr(sim, MESH_METHOD.get(name, "mesh"))()
+    return sim.mesh()
 
 
 def load(path) -> trimesh.Trimesh | trimesh.Scene:
@@ -229,7 +228,7 @@ def test_grass_pyramids_are_closed_with_base_times_height_over_three(runtime, tm
     sim = simulate(runtime, "grass_pyramid", *CASES["grass_pyramid"])
     sim.export_mesh(tmp_path / "pyramids.ply")
     mesh = as_mesh(loaded_triangles(tmp_path / "pyramids.ply"))
-    model, quad = sim.model, sim.mesh
+    model, quad = sim.model, sim.ground
     scale = abs(np.linalg.det(model[:3, :3].astype(np.float64)))  # the model matrix scales every volume
     for k, triangle in enumerate(quad["tri"]):
         one = weld(Mesh(mesh.vertices[12 * k : 12 * k + 12], mesh.faces[4 * k : 4 * k + 4] - 12 * k))

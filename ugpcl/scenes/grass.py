@@ -146,23 +146,23 @@ class Simulation(BaseSimulation):
         self.maps = geo.noise_maps(rng)  # book: _HeightMap, _RotationMap, _WindMap
         self.models = geo.plane_models(*p.planes, rng)  # book: PlaneDeployer
         self.program = rt.program("grass")
-        self.set_mesh(geo.plane_mesh(p.plane_resolution), self.models)
+        self.set_ground(geo.plane_mesh(p.plane_resolution), self.models)
 
-    def set_mesh(self, mesh: dict, models: np.ndarray, maps: dict | None = None) -> None:
+    def set_ground(self, mesh: dict, models: np.ndarray, maps: dict | None = None) -> None:
         """Grow grass on another mesh (pos, nrm, uv, tri) drawn once per model matrix, optionally with other maps
         (height, rot, wind: (H, W) arrays in [0, 1]; a 1x1 map is a constant). Expands at once."""
-        self.mesh = {k: np.ascontiguousarray(v) for k, v in mesh.items()}
+        self.ground = {k: np.ascontiguousarray(v) for k, v in mesh.items()}
         self.models = np.ascontiguousarray(models, np.float32).reshape(-1, 4, 4)
         if maps is not None:
             self.maps = {name: np.ascontiguousarray(maps[name], np.float32) for name in ("height", "rot", "wind")}
         # the book's vert(): tex2Dlod of each map at the vertex UV (the view's grass.vert does the same on the GPU)
-        self.samples = {name: geo.sample_bilinear(image, self.mesh["uv"]) for name, image in self.maps.items()}
-        self.blades = len(self.models) * len(self.mesh["tri"])
+        self.samples = {name: geo.sample_bilinear(image, self.ground["uv"]) for name, image in self.maps.items()}
+        self.blades = len(self.models) * len(self.ground["tri"])
         if self.params.backend == "opencl":
             rt = self.runtime
-            self.d_tri = rt.to_device(self.mesh["tri"].astype(np.uint32))
-            self.d_pos = rt.to_device(self.mesh["pos"].astype(np.float32))
-            self.d_nrm = rt.to_device(self.mesh["nrm"].astype(np.float32))
+            self.d_tri = rt.to_device(self.ground["tri"].astype(np.uint32))
+            self.d_pos = rt.to_device(self.ground["pos"].astype(np.float32))
+            self.d_nrm = rt.to_device(self.ground["nrm"].astype(np.float32))
             self.d_samples = [rt.to_device(self.samples[name]) for name in ("height", "rot", "wind")]
             self.d_models = rt.to_device(self.models)
             self.d_params = rt.to_device(self.params.block(self.shader_time))
@@ -182,7 +182,7 @@ class Simulation(BaseSimulation):
         """Grass.shader geom() for every triangle of every plane at the current shader time."""
         p = self.params
         if p.backend == "numpy":
-            self.result = geo.expand_grass(self.mesh, self.samples, self.models, p, self.shader_time)
+            self.result = geo.expand_grass(self.ground, self.samples, self.models, p, self.shader_time)
             return
         self.d_params.set(p.block(self.shader_time))
         self.program.kernel("GrassExpand")(
@@ -193,7 +193,7 @@ class Simulation(BaseSimulation):
             self.d_nrm.data,
             *(s.data for s in self.d_samples),
             self.d_models.data,
-            np.int32(len(self.mesh["tri"])),
+            np.int32(len(self.ground["tri"])),
             np.int32(self.blades),
             self.d_params.data,
             self.blade_pos.data,
@@ -250,14 +250,14 @@ class Simulation(BaseSimulation):
             "backend": self.params.backend,
         }
 
-    def expanded_mesh(self) -> Mesh:
+    def mesh(self) -> Mesh:
         """The blades in world space, 7 vertices and 5 strip triangles each; no normals (the book's blades are unlit
-        and two-sided). Named so, not ``mesh()``, because ``self.mesh`` is the mesh the grass grows on."""
+        and two-sided). ``self.ground`` is the mesh the grass grows on."""
         return Mesh(self.blades_state()["blade_pos"], geo.strip_triangles(self.blades))
 
     def export_mesh(self, path) -> None:
-        """--mesh: ``expanded_mesh()`` as .obj, .ply or .glb."""
-        write_mesh(path, self.expanded_mesh())
+        """--mesh: ``mesh()`` as .obj, .ply or .glb."""
+        write_mesh(path, self.mesh())
 
 
 # }}}
@@ -288,16 +288,16 @@ class PyramidSimulation(BaseSimulation):
             [translation(-QUAD_X, 0.0, 0.0) @ rotation, translation(QUAD_X, 0.0, 0.0) @ rotation], np.float32
         )
         self.program = self.runtime.program("grass")
-        self.set_mesh(geo.quad_mesh(), self.models[1])
+        self.set_ground(geo.quad_mesh(), self.models[1])
 
-    def set_mesh(self, mesh: dict, model: np.ndarray) -> None:
+    def set_ground(self, mesh: dict, model: np.ndarray) -> None:
         """Run the pyramid shader on another mesh (pos, tri) with another model matrix (tests). Expands at once."""
-        self.mesh = {k: np.ascontiguousarray(v) for k, v in mesh.items()}
+        self.ground = {k: np.ascontiguousarray(v) for k, v in mesh.items()}
         self.model = np.ascontiguousarray(model, np.float32).reshape(4, 4)
-        self.triangles = len(self.mesh["tri"])
+        self.triangles = len(self.ground["tri"])
         rt = self.runtime
-        self.d_tri = rt.to_device(self.mesh["tri"].astype(np.uint32))
-        self.d_pos = rt.to_device(self.mesh["pos"].astype(np.float32))
+        self.d_tri = rt.to_device(self.ground["tri"].astype(np.uint32))
+        self.d_pos = rt.to_device(self.ground["pos"].astype(np.float32))
         self.d_model = rt.to_device(self.model.ravel())
         self.pyr_pos = rt.empty(self.triangles * geo.PYRAMID_VERTICES * 3, np.float32)
         self.pyr_col = rt.empty(self.triangles * geo.PYRAMID_VERTICES * 4, np.float32)
@@ -307,7 +307,7 @@ class PyramidSimulation(BaseSimulation):
         """SimpleGeometryShader geom() for every triangle of the mesh."""
         p = self.params
         if p.backend == "numpy":
-            self.result = geo.expand_pyramid(self.mesh, self.model, p.height, p.top_color, p.bottom_color)
+            self.result = geo.expand_pyramid(self.ground, self.model, p.height, p.top_color, p.bottom_color)
             return
         self.program.kernel("PyramidExpand")(
             (self.triangles,),
@@ -349,7 +349,7 @@ class PyramidSimulation(BaseSimulation):
             "backend": self.params.backend,
         }
 
-    def expanded_mesh(self) -> Mesh:
+    def mesh(self) -> Mesh:
         """The pyramids in world space, 12 vertices each as emitted (unwelded), no normals. The book's base runs the
         same way as the sides (it draws with Cull Off); here the base is reversed, and all four triangles where the
         apex lies behind the base, so that each pyramid, welded, is a closed solid wound outwards."""
@@ -361,8 +361,8 @@ class PyramidSimulation(BaseSimulation):
         return Mesh(pos, np.where(inward[:, None, None], local[:, ::-1], local) + first)
 
     def export_mesh(self, path) -> None:
-        """--mesh: ``expanded_mesh()`` as .obj, .ply or .glb."""
-        write_mesh(path, self.expanded_mesh())
+        """--mesh: ``mesh()`` as .obj, .ply or .glb."""
+        write_mesh(path, self.mesh())
 
 
 # }}}

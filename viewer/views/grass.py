@@ -118,7 +118,7 @@ class GrassView(_GeometryShaderView):
         super().__init__(ctx, sim)
         self.program = load_program(ctx, "grass", varyings=GS_VARYINGS)
         self.saved_wind_power = sim.params.wind_power or sim.Params().wind_power
-        self.mesh = self.maps = self.models_bytes = None
+        self.ground = self.maps = self.models_bytes = None
         self.textures: dict[str, moderngl.Texture] = {}
         self.vao = None
 
@@ -131,8 +131,8 @@ class GrassView(_GeometryShaderView):
         sim = self.sim
         if self.maps is not sim.maps:
             self._upload_maps(sim.maps)
-        if self.mesh is not sim.mesh or self.models_bytes != sim.models.tobytes():
-            self._upload_mesh(sim.mesh, sim.models)
+        if self.ground is not sim.ground or self.models_bytes != sim.models.tobytes():
+            self._upload_mesh(sim.ground, sim.models)
         if self.path == "OpenCL":
             blades = sim.blades_state()
             self._upload_strips(blades["blade_pos"], blades["blade_col"], lambda: strip_triangles(sim.blades))
@@ -167,7 +167,7 @@ class GrassView(_GeometryShaderView):
             index_buffer=self.ibo,
             index_element_size=4,
         )
-        self.mesh, self.models_bytes, self.instance_count = mesh, models.tobytes(), len(models)
+        self.ground, self.models_bytes, self.instance_count = mesh, models.tobytes(), len(models)
 
     def set_uniforms(self, camera) -> None:
         """Camera, the Params the geometry shader reads, the shader time and the three maps."""
@@ -194,7 +194,7 @@ class GrassView(_GeometryShaderView):
     def status(self) -> list[str]:
         p = self.sim.params
         return [
-            f"{self.sim.blades} blades ({len(self.sim.models)} planes x {len(self.sim.mesh['tri'])} triangles), "
+            f"{self.sim.blades} blades ({len(self.sim.models)} planes x {len(self.sim.ground['tri'])} triangles), "
             f"{self.sim.blades * BLADE_VERTICES} vertices emitted  [{self.path}]",
             f"height {p.height:.3g}  width {p.width:.3g}  wind_power {p.wind_power:g}  "
             f"wind_time_scale {p.wind_time_scale:g}  t = {self.sim.shader_time:.1f} s"
@@ -269,7 +269,7 @@ class PyramidView(_GeometryShaderView):
         super().__init__(ctx, sim)
         self.program = load_program(ctx, "grass_pyramid", fragment="grass", varyings=GS_VARYINGS)
         self.flat_program = load_program(ctx, "grass_flat", fragment="grass")
-        self.mesh = None
+        self.ground = None
 
     def make_camera(self):
         # book: orthographic size 5 at (0, 7.6, -10) pitched 25 degrees down; orbit about where that ray meets y = 0
@@ -287,18 +287,18 @@ class PyramidView(_GeometryShaderView):
 
     def upload(self) -> None:
         sim = self.sim
-        if self.mesh is not sim.mesh:
-            if self.mesh is not None:
+        if self.ground is not sim.ground:
+            if self.ground is not None:
                 for obj in (self.vao, self.flat_vao, self.vbo, self.ibo):
                     obj.release()
-            self.vbo = self.ctx.buffer(np.ascontiguousarray(sim.mesh["pos"], "f4").tobytes())
-            self.ibo = self.ctx.buffer(np.ascontiguousarray(sim.mesh["tri"], "u4").tobytes())
+            self.vbo = self.ctx.buffer(np.ascontiguousarray(sim.ground["pos"], "f4").tobytes())
+            self.ibo = self.ctx.buffer(np.ascontiguousarray(sim.ground["tri"], "u4").tobytes())
             content = [(self.vbo, "3f", "in_position")]
             self.vao = self.ctx.vertex_array(self.program, content, index_buffer=self.ibo, index_element_size=4)
             self.flat_vao = self.ctx.vertex_array(
                 self.flat_program, content, index_buffer=self.ibo, index_element_size=4
             )
-            self.mesh = sim.mesh
+            self.ground = sim.ground
         if self.path == "OpenCL":
             state = sim.state()
             vertices = state["pyr_pos"].shape[0] * state["pyr_pos"].shape[1]  # separate triangles, in order
