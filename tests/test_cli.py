@@ -96,6 +96,7 @@ def test_every_k_stacks_a_history(capsys, tmp_path):
             "--seed must be in [0, 9223372036854775807], got 18446744073709551616",
         ),
         (["run", "boids", "--out", "/etc/hostname/x.npz"], "--out /etc/hostname/x.npz: cannot write in /etc/hostname"),
+        (["run", "boids", "--png", "/proc/x.png"], "--png /proc/x.png: cannot write in /proc"),  # even as root
     ],
 )
 def test_bad_input_is_one_clear_line_and_exit_2(capsys, argv, message):

@@ -15,6 +15,7 @@ import os
 import shutil
 import signal
 import sys
+import tempfile
 import textwrap
 import threading
 import time
@@ -333,8 +334,13 @@ def output_path(text: str | None, option: str, suffixes: tuple[str, ...]) -> Pat
     folder = path.parent.resolve()
     while not folder.exists():  # the first folder that exists must let us make the rest
         folder = folder.parent
-    if not folder.is_dir() or not os.access(folder, os.W_OK | os.X_OK):
-        raise UsageError(f"{option} {text}: cannot write in {folder}")
+    try:  # a real file, not os.access: root passes that check in read-only mounts and /proc
+        if not folder.is_dir():
+            raise NotADirectoryError(20, "not a folder")
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as err:
+        raise UsageError(f"{option} {text}: cannot write in {folder} ({err.strerror})") from None
     return path
 
 
