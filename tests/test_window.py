@@ -153,3 +153,35 @@ def test_view_pauses_with_a_message_when_the_state_diverges(display, tmp_path):
     drawn = foreground(shot, view_class(scenes()["cloth"]).background)
     assert drawn[:120, :200].mean() > 0.5, "no message panel at the top left"
     assert drawn[170:].mean() < 0.02, "something besides the message was drawn"
+
+
+@pytest.mark.gl
+def test_ear_clipping_draws_a_ring_with_left_clicks_and_closes_it_with_a_right_click(display, tmp_path):
+    """The sample's DrawTest: left clicks add vertices, a right click (press and release, no drag) closes the ring,
+    which is then triangulated and filled."""
+    env = {**os.environ, "DISPLAY": display}
+    viewer = Path(sys.executable).parent / "ugpcl-view"
+    argv = [str(viewer), "ear_clipping", "--set", "preset=draw", "--size", "320x240"]
+    app = subprocess.Popen(argv, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        window = xdotool(env, "search", "--sync", "--onlyvisible", "--name", "ugpcl").splitlines()[0]
+        xdotool(env, "windowfocus", "--sync", window)
+        time.sleep(1.0)
+        for x, y in ((80, 180), (160, 60), (240, 180)):  # a triangle, in window pixels
+            xdotool(env, "mousemove", "--window", window, str(x), str(y), "click", "1")
+            time.sleep(0.3)
+        xdotool(env, "mousemove", "--window", window, "160", "200", "click", "3")
+        time.sleep(1.0)
+        xdotool(env, "key", "s")
+        deadline = time.time() + 30
+        while time.time() < deadline and not list((tmp_path / "out").glob("ear_clipping-*.png")):
+            time.sleep(0.2)
+        xdotool(env, "key", "Escape")
+        assert app.wait(timeout=30) == 0
+    finally:
+        if app.poll() is None:
+            app.kill()
+        app.communicate()
+    shot = np.asarray(Image.open(next((tmp_path / "out").glob("ear_clipping-*.png"))).convert("RGB"))
+    inside = foreground(shot[130:160, 145:175], (0.0, 0.0, 0.0))  # around the triangle's centroid (160, 140)
+    assert inside.mean() > 0.9, "the closed ring was not filled"

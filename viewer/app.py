@@ -68,6 +68,7 @@ class ViewerWindow(mglw.WindowConfig):
         self.camera = self.view.make_camera()
         self.camera.aspect = self.wnd.aspect_ratio
         self.paused, self.step_once, self.show_help = False, False, False
+        self.right_click = False  # the right button is down and has not moved
         self.watch, self.diverged = Watch(self.sim), None  # diverged: the message while the state holds NaN/inf
         self.overlay = TextOverlay(self.ctx)
         self.wnd.title = f"ugpcl - {self.view.title or self.scene.name}  (H: help)"
@@ -168,18 +169,23 @@ class ViewerWindow(mglw.WindowConfig):
                 return
 
     def on_mouse_press_event(self, x: int, y: int, button: int) -> None:
+        self.right_click = button == 2  # until the mouse moves: a right drag orbits instead
         if button == 1:  # a click without a move already paints/emits/pushes in the 2D scenes
             w, h = self.wnd.size
             self.view.on_drag(self.camera, x / w, 1.0 - y / h, 0.0, 0.0)
 
     def on_mouse_drag_event(self, x: int, y: int, dx: int, dy: int) -> None:
         w, h = self.wnd.size
+        self.right_click = False
         if self.wnd.mouse_states.left:
             self.view.on_drag(self.camera, x / w, 1.0 - y / h, dx / w, -dy / h)
         else:  # right (or middle) drag always orbits, so a scene whose left drag paints can still be turned
             self.camera.drag(dx / w * 600, -dy / h * 600)
 
     def on_mouse_release_event(self, x: int, y: int, button: int) -> None:
+        if button == 2 and self.right_click:
+            w, h = self.wnd.size
+            self.view.on_right_click(self.camera, x / w, 1.0 - y / h)
         self.view.on_release(self.camera)
 
     def on_mouse_scroll_event(self, x_offset: float, y_offset: float) -> None:

@@ -64,6 +64,9 @@ class View:
     def on_release(self, camera) -> None:
         """Mouse button released."""
 
+    def on_right_click(self, camera, u: float, v: float) -> None:
+        """Right button pressed and released without a drag (a right drag orbits)."""
+
 
 def view_class(scene) -> type[View]:
     module = importlib.import_module(f"{__name__}.{scene.stem}")

@@ -93,9 +93,9 @@ class View(BaseView):
     def rect(self) -> tuple[float, float, float, float]:
         """The rings' bounding box with a 12% margin (DrawTest's camera when there is nothing yet)."""
         rings = [r for r in self.sim.rings if len(r)]
-        if not rings and not self.pending:
+        if not rings:
             return DRAW_RECT
-        points = np.concatenate(rings + [np.asarray(self.pending, float).reshape(-1, 2)])
+        points = np.concatenate(rings)
         (x0, y0), (x1, y1) = points.min(axis=0), points.max(axis=0)
         margin = 0.12 * max(x1 - x0, y1 - y0, 1e-6)
         return (x0 - margin, x1 + margin, y0 - margin, y1 + margin)
@@ -140,7 +140,8 @@ class View(BaseView):
     # }}}
 
     def draw(self, camera) -> None:
-        camera.rect = self.rect()
+        if not self.pending:  # the frame holds still while a ring is drawn: clicks map to where they were seen
+            camera.rect = self.rect()
         self.ctx.disable(moderngl.DEPTH_TEST)
         self.ctx.disable(moderngl.CULL_FACE)  # the book's triangles are clockwise: draw both faces
         if self.show_fill and self.index_count:
@@ -173,17 +174,21 @@ class View(BaseView):
             f"{s['groups']}  vertices {s['vertices']}  triangles {s['triangles']}  variant {sim.params.variant}"
             f"{'  delaunay' if sim.params.delaunay else ''}{'' if s['complete'] else '  INCOMPLETE'}",
             f"clip {sim.clips}/{len(sim.ear_triangles)}  ear list: {shown or '-'}",
-            "left click: add vertex, k: close ring, u: undo, c: clear (the sample's DrawTest)",
+            "left click: add vertex, right click or k: close ring, u: undo, c: clear (the sample's DrawTest)",
         ]
         if self.show_earcut:
             lines.append(f"earcut: {len(sim.earcut())} triangles (ours {len(sim.triangles)})")
         return lines
 
-    # {{{ mouse: DrawTest's left click adds a vertex
+    # {{{ mouse: DrawTest's left click adds a vertex, its right click closes the ring
 
     def on_drag(self, camera, u: float, v: float, du: float, dv: float) -> None:
         if du == 0.0 and dv == 0.0:  # a click, not a drag
             self.pending.append(camera.to_world(u, v))
+
+    def on_right_click(self, camera, u: float, v: float) -> None:
+        """DrawTest's right click closes the ring (as the k key does)."""
+        self.close_ring()
 
     # }}}
 
