@@ -246,3 +246,35 @@ def test_write_mesh_refuses_unknown_suffixes_and_bad_lines(tmp_path):
 
 
 # }}}
+
+
+def test_glb_embeds_the_texture_the_uvs_address(tmp_path):
+    """A textured quad: the .glb holds the image as its material's base colour, and v = 0 samples the bottom row."""
+    image = np.zeros((4, 8, 3), np.uint8)
+    image[0] = (255, 0, 0)  # top row red
+    image[-1] = (0, 0, 255)  # bottom row blue
+    quad = Mesh(
+        [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], [(0, 1, 2), (0, 2, 3)], uvs=[(0, 0), (1, 0), (1, 1), (0, 1)],
+        texture=image,
+    )  # fmt: skip
+    write_mesh(tmp_path / "q.glb", quad)
+    loaded = next(iter(trimesh.load(tmp_path / "q.glb").geometry.values()))
+    stored = np.asarray(loaded.visual.material.baseColorTexture.convert("RGB"))
+    np.testing.assert_array_equal(stored, image)
+    np.testing.assert_allclose(loaded.visual.uv, quad.uvs, atol=1e-6)
+    assert tuple(loaded.visual.material.to_color(np.array([[0.5, 0.0]]))[0][:3]) == (0, 0, 255)
+    with pytest.raises(ValueError, match="texture must be"):
+        Mesh(quad.vertices, quad.faces, texture=image)  # a texture needs uvs
+
+
+def test_the_multiplane_room_carries_its_face_images(runtime, tmp_path):
+    """The room's .glb is self-contained: the atlas of the face images, each face's uvs on its own image."""
+    scene = get("multiplane_projection")
+    sim = scene.create(runtime, 0, face_resolution=(32, 16))
+    room = sim.mesh()
+    faces = sim.state()["face_images"]
+    assert room.texture.shape == (16, 5 * 32, 4)
+    np.testing.assert_array_equal(room.texture[::-1, 64:96], faces[2])  # face 2, bottom row first again
+    write_mesh(tmp_path / "room.glb", room)
+    loaded = next(iter(trimesh.load(tmp_path / "room.glb").geometry.values()))
+    assert loaded.visual.material.baseColorTexture.size == (5 * 32, 16)

@@ -23,7 +23,9 @@ class Mesh:
     normals: np.ndarray | None = None
     """(V, 3) float32 unit normals per vertex, or None."""
     uvs: np.ndarray | None = None
-    """(V, 2) float32 texture coordinates per vertex, or None."""
+    """(V, 2) float32 texture coordinates per vertex (OpenGL's: v = 0 is the image's bottom row), or None."""
+    texture: np.ndarray | None = None
+    """(H, W, 3 or 4) uint8 image the uvs address, top row first as in an image file; .glb embeds it."""
 
     def __post_init__(self) -> None:
         self.vertices = np.ascontiguousarray(self.vertices, np.float32).reshape(-1, 3)
@@ -39,6 +41,10 @@ class Mesh:
             value = getattr(self, name)
             if value is not None and len(value) != n:
                 raise ValueError(f"Mesh.{name} must have one row per vertex ({n}), got {len(value)}")
+        if self.texture is not None:
+            self.texture = np.ascontiguousarray(self.texture, np.uint8)
+            if self.texture.ndim != 3 or self.texture.shape[2] not in (3, 4) or self.uvs is None:
+                raise ValueError(f"Mesh.texture must be (H, W, 3|4) with uvs, got shape {self.texture.shape}")
 
     @staticmethod
     def merge(meshes) -> Mesh:

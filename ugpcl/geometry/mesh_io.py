@@ -10,6 +10,8 @@ suffix   triangles  normals  uvs    line segments
 .glb     yes        yes      yes    mesh "lines": GL_LINES, two vertices per segment, beside mesh "triangles"
 =======  =========  =======  =====  ====================================================================
 
+Only .glb embeds ``Mesh.texture`` (as the base colour of the triangles' material).
+
 .glb goes through trimesh; ``trimesh.load`` reads GL_LINES back as one polyline through all the vertices (Blender
 and three.js draw the segments).
 """
@@ -94,11 +96,15 @@ def _write_glb(path: Path, mesh: Mesh, lines) -> None:
     """glTF binary through trimesh: the triangles as one mesh (normals, uvs as given, nothing merged or
     reordered), the segments as a GL_LINES primitive. Readers: Blender, three.js, ``trimesh.load``."""
     import trimesh
+    from PIL import Image
     from trimesh.path.entities import Line
 
     scene = trimesh.Scene()
     if len(mesh.faces) or not len(lines):  # an empty mesh still makes a valid (empty) file
-        visual = None if mesh.uvs is None else trimesh.visual.TextureVisuals(uv=mesh.uvs)
+        visual = None
+        if mesh.uvs is not None:
+            image = None if mesh.texture is None else Image.fromarray(mesh.texture)
+            visual = trimesh.visual.TextureVisuals(uv=mesh.uvs, image=image)
         triangles = trimesh.Trimesh(
             mesh.vertices, mesh.faces, vertex_normals=mesh.normals, visual=visual, process=False
         )

@@ -452,7 +452,8 @@ class Simulation(BaseSimulation):
 
     def mesh(self) -> Mesh:
         """The room's faces as quads (normals into the room, the side that shows the images), metres from the floor
-        centre. uv addresses an atlas of the face images side by side: face k covers u in [k, k+1] / faces."""
+        centre. uv addresses an atlas of the face images side by side (the texture): face k covers u in
+        [k, k+1] / faces."""
         p = self.params
         basis, size, center = (a[: p.faces] for a in room_faces(p.room_size))
         corners = ((-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5))  # (u, v) - 0.5, counter-clockwise
@@ -465,7 +466,11 @@ class Simulation(BaseSimulation):
             # the image faces -F (into the room); (R, U) is counter-clockwise about -F when R x U = -F
             order = [0, 1, 2, 0, 2, 3] if np.dot(np.cross(right, up), -forward) > 0 else [0, 2, 1, 0, 3, 2]
             parts.append(Mesh(vertices, np.reshape(order, (2, 3)), np.tile(-forward, (4, 1)), uvs))
-        return Mesh.merge(parts)
+        room = Mesh.merge(parts)
+        self.render_faces()
+        atlas = np.concatenate(list(self.face_buffer.get()[: p.faces]), axis=1)  # (H, faces * W, 4), row 0 bottom
+        # the texture in image-file order (top row first): a .glb shows the walls with their pictures
+        return Mesh(room.vertices, room.faces, room.normals, room.uvs, texture=atlas[::-1])
 
     def export_mesh(self, path) -> None:
         write_mesh(path, self.mesh())
