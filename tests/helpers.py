@@ -77,3 +77,59 @@ def linear_filter_error(ctx) -> float:
     for obj in (vao, quad, program, fbo, target, texture):
         obj.release()
     return float(np.abs(got - expected).max())
+
+
+def gl_context():
+    """The process's standalone EGL context (the one the ``gl`` fixture checks for errors; prefer the fixture)."""
+    from ugpcl.viewer.offscreen import context
+
+    return context()
+
+
+def compare_images(a: np.ndarray, b: np.ndarray, atol: float) -> str:
+    """How two float images of one shape (h, w[, c]) differ: the count of pixels with a channel off by more than
+    ``atol`` and the worst pixel (row, column, both values); "all within atol" when none is (assertion messages)."""
+    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    if a.shape != b.shape:
+        return f"shapes differ: {a.shape} vs {b.shape}"
+    error = np.abs(a - b)
+    error[np.isnan(a) != np.isnan(b)] = np.inf  # a NaN on one side only is the worst mismatch
+    error = np.nan_to_num(error, nan=0.0, posinf=np.inf)  # NaN on both sides agrees
+    if error.ndim == 3:
+        error = error.max(axis=-1)
+    over = int((error > atol).sum())
+    row, col = np.unravel_index(np.argmax(error), error.shape)
+    worst = f"worst at row {row}, column {col} (row 0 = bottom): {a[row, col]} vs {b[row, col]}"
+    if not over:
+        return f"all within atol {atol:g}; {worst}"
+    return f"{over} of {error.size} pixels differ by more than {atol:g}; {worst}"
+
+
+def run_pass(gl, fragment: str, textures: dict, uniforms: dict | None = None, size=None, defines=None) -> np.ndarray:
+    """``viewer/shaders/<fragment>.frag`` run as a FullscreenPass into a float32 RGBA target of ``size`` (width,
+    height; default the size of the first texture): its (h, w, 4) pixels, row 0 = bottom, the layout of the OpenCL
+    twin's ``image.h`` buffers. ``textures`` maps sampler names to (h, w[, c]) arrays in the same row order
+    (c = 1 to 4 components), uploaded with ``postfx.float_texture``."""
+    from ugpcl.viewer.postfx import FloatTarget, FullscreenPass, float_texture
+
+    inputs = {name: float_texture(gl, array) for name, array in textures.items()}
+    if size is None and not inputs:
+        raise ValueError("run_pass needs a size when it has no textures")
+    target = FloatTarget(gl, size or next(iter(inputs.values())).size)
+    step = FullscreenPass(gl, fragment, defines)
+    try:
+        step.run(target, inputs, uniforms or {})
+        return target.read()
+    finally:
+        for obj in (step, target, *inputs.values()):
+            obj.release()
+
+
+def build_kernel_source(runtime, source: str):
+    """A pyopencl Program built from ``source`` with ``clkernels/include`` on the include path (test kernels that
+    exercise a header; the ``image.h`` twin checks)."""
+    import pyopencl as cl
+
+    from ugpcl.runtime import INCLUDE_DIR
+
+    return cl.Program(runtime.context, source).build(options=[f"-I{INCLUDE_DIR}"])
