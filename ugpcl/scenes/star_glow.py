@@ -1,0 +1,516 @@
+"""StarGlow: Kawase's light streaks from the bright pixels of an HDR frame (vol.4 ch.4; docs/chapters/15-star-glow.md).
+
+Kernel order per frame, as the book's ``StarGlow.cs`` blits its shader passes: ``Brightness`` (pass 1) into a
+``divide``-times smaller image; for each of ``num_of_streak`` directions ``Streak`` (pass 2) ``iteration`` times
+with power 1, 4, 16 ... (a ping-pong pair), then ``ScreenAccumulate`` (pass 3, ``Blend OneMinusDstColor One``) into
+``comp``; ``Composite`` (pass 4) onto the source. Pass 0 of the book's shader is never described in the chapter and
+never blitted by the script: it is a plain copy for debugging, which the viewer's display keys play.
+``variant=fused`` (not in the book): every direction of a pass in one 3-D launch (``StreakAllDirections``), and the
+last pass fused with the screen accumulation (``StreakAccumulate``): ``iteration + 2`` launches instead of
+``2 + num_of_streak * (iteration + 1)``, the same result.
+
+The source is ``input``: ``demo`` (``DemoScene``: lit white spheres falling through the frame, their specular
+highlights above 1, as the book's sample of lit falling cubes on a black HDR camera) or an image file (``.png``,
+scaled by ``input_gain``; ``.npy``, HDR float (H, W, 3|4), top row first).
+
+Differences from the book: ``comp`` is cleared every frame (the book blends into an uncleared temporary); the tap
+weights a^(power*j) come from the host as exact float32 powers.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pyopencl as cl
+import pyopencl.cltypes as cltypes
+
+from ..benchmark import seconds_per_step
+from ..buffers import PingPong
+from ..resources import Allocation
+from ..runtime import round_up
+from ..scene import ParamError, Scene, check_dt, param
+from ..scene import Params as BaseParams
+from ..scene import Simulation as BaseSimulation
+
+STEM = "star_glow"
+COMPOSITE_TYPES = ("additive", "screen", "colored_additive", "colored_screen", "debug")
+"""The book's CompositeType keywords (_COMPOSITE_TYPE_ADDITIVE ...), in the order of their ids 0-4."""
+TAPS = 4
+"""Taps per streak pass (Kawase's value; the shader's `j < 4`)."""
+LOCAL = (16, 16)
+"""Work-group of every 2-D kernel (the spec's 16x16)."""
+IMAGE_SUFFIXES = (".png", ".npy")
+
+# {{{ the demo's scene (the book's Sample scene: a lit white particle shower on a black HDR camera)
+
+EYE = (0.0, 0.0, -2.0)
+"""Camera position; it looks along +z (Sample: camera at (0, 0, -2))."""
+FOV_DEGREES = 30.0
+"""Vertical field of view (Sample camera)."""
+LIGHT_COLOR = (1.0, 0.957, 0.839)
+LIGHT_INTENSITY = 0.87
+LIGHT_EULER = (50.0, -30.0, 0.0)
+"""The Sample's directional light: colour, intensity and Unity Euler angles (degrees)."""
+SPECULAR, SHININESS = 3.0, 64.0
+"""Blinn-Phong specular gain and exponent: highlights reach ~3x the light (the spec's 'strong specular term')."""
+FALL_SPEED = 0.25
+"""Mean falling speed of the spheres, world units/s."""
+
+
+def to_light_direction(euler=LIGHT_EULER) -> np.ndarray:
+    """Unit vector towards a Unity directional light with Euler angles (x, y, z) degrees: its forward (0, 0, 1)
+    rotated by Rx then Ry (Unity applies z, x, y), negated."""
+    ax, ay = np.radians(euler[0]), np.radians(euler[1])
+    forward = np.array([0.0, -np.sin(ax), np.cos(ax)])  # Rx: +x tilts forward down (left-handed, y up)
+    forward = np.array(
+        [
+            forward[0] * np.cos(ay) + forward[2] * np.sin(ay),
+            forward[1],
+            -forward[0] * np.sin(ay) + forward[2] * np.cos(ay),
+        ]
+    )
+    return -forward / np.linalg.norm(forward)
+
+
+def demo_spheres(count: int, seed: int, time: float, aspect: float) -> tuple[np.ndarray, np.ndarray]:
+    """(centres+radius, albedo) float32 (count, 4) at ``time``: spheres falling through the view and wrapping to the
+    top, each with its own depth, size, speed and a pale tint."""
+    rng = np.random.default_rng(seed)
+    z = rng.uniform(1.0, 3.0, count)
+    half_h = (z - EYE[2]) * math.tan(math.radians(FOV_DEGREES / 2))
+    x = rng.uniform(-0.9, 0.9, count) * half_h * aspect
+    radius = rng.uniform(0.05, 0.12, count)
+    speed = FALL_SPEED * rng.uniform(0.6, 1.4, count)
+    span = 2 * (half_h + radius)
+    y = half_h + radius - np.mod(rng.uniform(0.0, 1.0, count) * span + speed * time, span)
+    albedo = 1.0 - rng.uniform(0.0, 0.35, (count, 3)) * (rng.random((count, 1)) < 0.5)
+    spheres = np.stack([x, y, z, radius], axis=1).astype(np.float32)
+    return spheres, np.concatenate([albedo, np.ones((count, 1))], axis=1).astype(np.float32)
+
+
+# }}}
+
+
+@dataclass(frozen=True)
+class Params(BaseParams):
+    composite_type: str = param("additive", choices=COMPOSITE_TYPES, live=True)
+    """Final blend of the glow onto the source (book: compositeType): clamp(src + glow), screen, the two with the
+    glow's grey times ``color``, or debug (the glow alone, unclamped)."""
+    threshold: float = param(1.0, 0.0, 1e4, live=True)
+    """Brightness threshold: only channel values above it glow (book: threshold, inspector 0-1)."""
+    intensity: float = param(1.0, 0.0, 1e4, live=True)
+    """Gain on what passes the threshold (book: intensity, inspector 0-10)."""
+    divide: int = param(3, 1, 64)
+    """Downscale of the glow images: w = W // divide, h = H // divide (book: divide, inspector 1-20)."""
+    iteration: int = param(5, 1, 8, live=True)
+    """Streak passes per direction; a streak is 4^iteration texels long (book: iteration, inspector 1-5)."""
+    attenuation: float = param(1.0, 0.0, 1.0, live=True)
+    """Decay per texel along a streak: tap j of pass i weighs attenuation^(4^(i-1) j) (book: attenuation)."""
+    angle_of_streak: float = param(0.0, -360.0, 360.0, live=True)
+    """Rotation of the star, degrees (book: angleOfStreak, inspector 0-360)."""
+    num_of_streak: int = param(4, 1, 16)
+    """Number of streak directions, 360/num_of_streak degrees apart (book: numOfStreak)."""
+    color: tuple[float, float, float, float] = param((1.0, 1.0, 1.0, 1.0), 0.0, 1e4, live=True)
+    """Tint of the colored_* composite types (book: color)."""
+    input: str = "demo"
+    """Source frame: ``demo`` (lit spheres, rendered by DemoScene) or an image file (.png, .npy float HDR)."""
+    input_gain: float = param(1.0, 0.0, 1e4)
+    """Scale of an image input (PNG values are <= 1: raise it, or lower threshold, to make them glow)."""
+    width: int = param(640, 1, 8192)
+    """Width W of the demo frame, pixels (an image input has its own size)."""
+    height: int = param(360, 1, 8192)
+    """Height H of the demo frame, pixels (an image input has its own size)."""
+    spheres: int = param(24, 1, 1024)
+    """Spheres of the demo frame."""
+    variant: str = param("book", choices=("book", "fused"), live=True)
+    """book: one launch per pass and direction; fused: one 3-D launch per pass, the last fused with pass 3."""
+    save_streaks: bool = param(False, live=True)
+    """Keep every direction's final streak image (``streaks`` (N, h, w, 4) in the state)."""
+
+    limits = ("width // divide >= 1", "height // divide >= 1")
+    """The glow images need a texel (for the demo frame; an image input is checked when it is read)."""
+
+    def check(self) -> None:
+        for rule, size in zip(self.limits, (self.width, self.height), strict=True):
+            if size // self.divide < 1:
+                raise self.broken(rule, f"glow image {self.width // self.divide}x{self.height // self.divide}")
+        if self.input != "demo" and Path(self.input).suffix.lower() not in IMAGE_SUFFIXES:
+            raise ValueError(f"input must be demo or a {'/'.join(IMAGE_SUFFIXES)} file, got {self.input!r}")
+
+    @property
+    def mode(self) -> int:
+        return COMPOSITE_TYPES.index(self.composite_type)
+
+
+def streak_directions(count: int, angle_of_streak: float) -> np.ndarray:
+    """(count, 2) float32: direction x = 1..count is (0, -1) rotated by 360/count * x + angle_of_streak degrees
+    about +z (book: Quaternion.AngleAxis(angle * x + angleOfStreak, forward) * Vector2.down), in float64 with
+    components below 1e-6 snapped to 0 so axis streaks hit texel centres."""
+    theta = np.radians(360.0 / count * np.arange(1, count + 1) + angle_of_streak)
+    dirs = np.stack([np.sin(theta), -np.cos(theta)], axis=1)
+    dirs[np.abs(dirs) < 1e-6] = 0.0
+    return (dirs / np.linalg.norm(dirs, axis=1, keepdims=True)).astype(np.float32)
+
+
+def tap_weights(attenuation: float, power: float) -> np.ndarray:
+    """attenuation^(power * j) for the 4 taps (pow(0, 0) = 1, as HLSL)."""
+    return np.array([attenuation ** (power * j) for j in range(TAPS)], np.float32)
+
+
+def streak_line_kernel(attenuation: float, iteration: int, direction) -> np.ndarray:
+    """The convolution kernel (rows = y, GL order) that ``iteration`` streak passes along an axis ``direction``
+    equal while every weighted tap stays <= 1 (the taps are saturated): a^d at d texels along +direction,
+    d < 4^iteration, for ``scipy.ndimage.convolve`` (which flips it: out(p) = sum_d a^d in(p + d dir))."""
+    length = TAPS**iteration
+    dx, dy = (int(round(c)) for c in direction)
+    if abs(dx) + abs(dy) != 1:
+        raise ValueError(f"direction must be an axis, got {direction!r}")
+    kernel = np.zeros((2 * length - 1, 2 * length - 1))
+    d = np.arange(length)
+    kernel[length - 1 - d * dy, length - 1 - d * dx] = float(attenuation) ** d
+    return kernel if dy else kernel[length - 1 : length]
+
+
+def load_image(path: str, gain: float) -> np.ndarray:
+    """An image file as float32 (H, W, 4) in GL row order (row 0 = bottom), times ``gain``."""
+    file = Path(path)
+    if not file.is_file():
+        raise ParamError(f"input {path!r}: no such file")
+    if file.suffix.lower() == ".npy":
+        image = np.load(file).astype(np.float32)
+    else:
+        from PIL import Image
+
+        image = np.asarray(Image.open(file).convert("RGBA"), np.float32) / 255.0
+    if image.ndim != 3 or image.shape[2] not in (3, 4):
+        raise ParamError(f"input {path!r}: expected an (H, W, 3|4) image, got shape {image.shape}")
+    if image.shape[2] == 3:
+        image = np.concatenate([image, np.ones(image.shape[:2] + (1,), np.float32)], axis=2)
+    if not np.isfinite(image).all():
+        raise ParamError(f"input {path!r}: holds NaN or inf")
+    return np.ascontiguousarray(image[::-1] * np.float32(gain))
+
+
+class Simulation(BaseSimulation):
+    """One StarGlow frame per step: the demo's frame (or the input image), then passes 1-4."""
+
+    Params = Params
+
+    @classmethod
+    def allocations(cls, params: Params) -> list:
+        full = params.width * params.height * 16
+        glow = full // (params.divide * params.divide)
+        return [
+            Allocation("source or output image", full, "width"),
+            Allocation("streak layer buffer", glow * params.num_of_streak, "num_of_streak"),
+        ]
+
+    def _reset(self) -> None:
+        p, rt = self.params, self.runtime
+        self.program = rt.program(STEM)
+        self.demo = p.input == "demo"
+        image = None if self.demo else load_image(p.input, p.input_gain)
+        self.W, self.H = (p.width, p.height) if self.demo else (image.shape[1], image.shape[0])
+        self.w, self.h = self.W // p.divide, self.H // p.divide
+        if self.w < 1 or self.h < 1:
+            raise ParamError(f"divide={p.divide} leaves no glow image of the {self.W}x{self.H} input")
+        n = p.num_of_streak
+        self.src = rt.to_device(image) if image is not None else rt.zeros((self.H, self.W, 4), np.float32)
+        self.dst = rt.zeros((self.H, self.W, 4), np.float32)
+        self.bright = rt.zeros((self.h, self.w, 4), np.float32)
+        self.comp = rt.zeros((self.h, self.w, 4), np.float32)
+        self.blur = PingPong.zeros(rt, (self.h, self.w, 4), np.float32)  # the book's blurredTex1/2
+        self.layers = PingPong.zeros(rt, (n, self.h, self.w, 4), np.float32)  # fused: one layer per direction
+        self.streaks = rt.zeros((n, self.h, self.w, 4), np.float32)
+        self.dirs = rt.zeros(n, cltypes.float2)
+        self.dirs_angle = None  # the angle_of_streak self.dirs holds (it is live: see _directions)
+        self.frame()
+
+    # {{{ kernels, in the book's order
+
+    def _grid(self, w: int, h: int, depth: int | None = None) -> tuple:
+        size = (round_up(w, LOCAL[0]), round_up(h, LOCAL[1]))
+        return (size, LOCAL) if depth is None else ((*size, depth), (*LOCAL, 1))
+
+    def demo_scene(self) -> None:
+        """DemoScene: the spheres at the current time, lit, into src (not in the book)."""
+        p = self.params
+        spheres, albedo = demo_spheres(p.spheres, self.seed, self.time, self.W / self.H)
+        to_light = to_light_direction()
+        self.program.kernel("DemoScene")(
+            *self._grid(self.W, self.H),
+            self.src,
+            np.int32(self.W),
+            np.int32(self.H),
+            self.runtime.to_device(spheres),
+            self.runtime.to_device(albedo),
+            np.int32(p.spheres),
+            cltypes.make_float4(*EYE, 0.0),
+            np.float32(math.tan(math.radians(FOV_DEGREES / 2))),
+            cltypes.make_float4(*to_light, 0.0),
+            cltypes.make_float4(*(c * LIGHT_INTENSITY for c in LIGHT_COLOR), 0.0),
+            np.float32(SPECULAR),
+            np.float32(SHININESS),
+        )
+
+    def brightness(self) -> None:
+        """Pass 1: bright = max(src - threshold, 0) * intensity, one bilinear tap per small texel."""
+        p = self.params
+        self.program.kernel("Brightness")(
+            *self._grid(self.w, self.h),
+            self.src,
+            np.int32(self.W),
+            np.int32(self.H),
+            self.bright,
+            np.int32(self.w),
+            np.int32(self.h),
+            np.float32(p.threshold),
+            np.float32(p.intensity),
+        )
+
+    def streak(self, source, target, direction, power: float) -> None:
+        """Pass 2: 4 taps from ``source`` along ``direction`` * power texels into ``target``."""
+        self.program.kernel("Streak")(
+            *self._grid(self.w, self.h),
+            source,
+            target,
+            np.int32(self.w),
+            np.int32(self.h),
+            cltypes.make_float2(*direction),
+            np.float32(power),
+            cltypes.make_float4(*tap_weights(self.params.attenuation, power)),
+        )
+
+    def screen_accumulate(self, source) -> None:
+        """Pass 3: comp = source + comp - source * comp (the book's Blend OneMinusDstColor One)."""
+        self.program.kernel("ScreenAccumulate")(
+            *self._grid(self.w, self.h), source, self.comp, np.int32(self.w), np.int32(self.h)
+        )
+
+    def streak_all_directions(self, source, target, in_stride: int, power: float) -> None:
+        """Pass 2 of every direction in one launch: layer d of ``target`` from layer d of ``source`` (in_stride 0:
+        every direction reads ``source`` itself)."""
+        self.program.kernel("StreakAllDirections")(
+            *self._grid(self.w, self.h, self.params.num_of_streak),
+            source,
+            target,
+            np.int32(self.w),
+            np.int32(self.h),
+            np.int32(in_stride),
+            self.dirs,
+            np.float32(power),
+            cltypes.make_float4(*tap_weights(self.params.attenuation, power)),
+        )
+
+    def streak_accumulate(self, source, in_stride: int, power: float) -> None:
+        """The last pass 2 of every direction, screen-blended into comp (which it overwrites: no clear needed)."""
+        self.program.kernel("StreakAccumulate")(
+            *self._grid(self.w, self.h),
+            source,
+            self.comp,
+            np.int32(self.w),
+            np.int32(self.h),
+            np.int32(in_stride),
+            self.dirs,
+            np.int32(self.params.num_of_streak),
+            np.float32(power),
+            cltypes.make_float4(*tap_weights(self.params.attenuation, power)),
+        )
+
+    def composite(self) -> None:
+        """Pass 4: the glow onto the source by composite_type."""
+        p = self.params
+        self.program.kernel("Composite")(
+            *self._grid(self.W, self.H),
+            self.src,
+            np.int32(self.W),
+            np.int32(self.H),
+            self.comp,
+            np.int32(self.w),
+            np.int32(self.h),
+            self.dst,
+            np.int32(p.mode),
+            cltypes.make_float4(*p.color),
+        )
+
+    # }}}
+
+    def powers(self) -> list[float]:
+        """power of pass i = 1..iteration: 4^(i-1) (book: pow(4, _Iteration - 1)), exact in float32."""
+        return [float(TAPS ** (i - 1)) for i in range(1, self.params.iteration + 1)]
+
+    def _directions(self) -> None:
+        """Directions for the current angle_of_streak (a live parameter), uploaded when it changed."""
+        if self.dirs_angle != self.params.angle_of_streak:
+            self.dirs_host = streak_directions(self.params.num_of_streak, self.params.angle_of_streak)
+            self.dirs.set(self.dirs_host.view(cltypes.float2).reshape(-1))
+            self.dirs_angle = self.params.angle_of_streak
+
+    def star_glow(self) -> None:
+        """The book's OnRenderImage: passes 1, (2 x iteration, 3) per direction, 4."""
+        self._directions()
+        self.brightness()
+        if self.params.variant == "fused":
+            self._streaks_fused()
+        else:
+            self._streaks_book()
+        self.composite()
+
+    def _streaks_book(self) -> None:
+        queue, layer = self.runtime.queue, self.w * self.h * 16
+        self.comp.fill(0.0)  # the book's compositeTex is an uncleared temporary
+        for d, direction in enumerate(self.dirs_host):
+            powers = self.powers()
+            self.streak(self.bright, self.blur.read, direction, powers[0])
+            for power in powers[1:]:
+                self.streak(self.blur.read, self.blur.write, direction, power)
+                self.blur.swap()
+            self.screen_accumulate(self.blur.read)
+            if self.params.save_streaks:
+                cl.enqueue_copy(queue, self.streaks.data, self.blur.read.data, dst_offset=d * layer, byte_count=layer)
+
+    def _streaks_fused(self) -> None:
+        *early, last = self.powers()
+        source, stride = self.bright, 0
+        for power in early:
+            self.streak_all_directions(source, self.layers.write, stride, power)
+            self.layers.swap()
+            source, stride = self.layers.read, self.w * self.h
+        self.streak_accumulate(source, stride, last)
+        if self.params.save_streaks:  # the fused pass keeps no streaks: run the last pass once more to show them
+            self.streak_all_directions(source, self.streaks, stride, last)
+
+    def frame(self) -> None:
+        """One frame: the demo's source at the current time (an image input stays), then StarGlow."""
+        if self.demo:
+            self.demo_scene()
+        self.star_glow()
+
+    def step(self, dt: float | None = None) -> None:
+        dt = check_dt(dt, self.default_dt)
+        self._advance(dt)
+        self.frame()
+
+    def images(self) -> dict[str, np.ndarray]:
+        """Every image in GL row order (row 0 = bottom), as the kernels see them."""
+        images = {name: getattr(self, name).get() for name in ("src", "bright", "comp", "dst")}
+        if self.params.save_streaks:
+            images["streaks"] = self.streaks.get()
+        return images
+
+    def state(self) -> dict[str, np.ndarray]:
+        """The spec's arrays, top row first (as image files): src, bright, comp, dst, streak_dirs (+ streaks)."""
+        images = self.images()
+        state = {name: np.ascontiguousarray(image[..., ::-1, :, :]) for name, image in images.items()}
+        return {**state, "streak_dirs": self.dirs_host.copy()}
+
+    def stats(self) -> dict:
+        p = self.params
+        launches = p.iteration + 2 if p.variant == "fused" else 2 + p.num_of_streak * (p.iteration + 1)
+        return {
+            **super().stats(),
+            "source": f"{self.W}x{self.H}",
+            "glow image": f"{self.w}x{self.h}",
+            "launches per frame": launches + int(self.demo),
+            "streak length": f"{TAPS**p.iteration} texels",
+        }
+
+
+def bench(runtime, sizes=None) -> list[dict]:
+    """ms per frame of the StarGlow passes (source fixed; brightness to composite, the queue finished after each
+    frame) for the book's per-pass launches and the fused variant, at the spec's two workloads (W, H, divide, N,
+    iteration) = (1920, 1080, 7, 5, 2) and (3840, 2160, 3, 8, 4); beside it the streaks alone on the CPU: the brightness
+    image filtered with one direction's line kernel a^d, d < 4^iteration (cv2.filter2D where opencv is installed,
+    else scipy.ndimage.convolve), timed for one direction and multiplied by N; and the GL passes (EGL) if available.
+    sizes: ignored (the two workloads are the spec's)."""
+    rows = []
+    for W, H, divide, n, iteration in ((1920, 1080, 7, 5, 2), (3840, 2160, 3, 8, 4)):
+        common = {"width": W, "height": H, "divide": divide, "num_of_streak": n, "iteration": iteration}
+        label = {"source": f"{W}x{H}", "divide": divide, "streaks": n, "iteration": iteration}
+        for variant in ("book", "fused"):
+            sim = Simulation(runtime, Params(**common, attenuation=0.95, threshold=1.0, variant=variant), seed=0)
+            sim.frame = sim.star_glow  # time the post effect, not the demo's ray casting
+            rows.append({**label, "path": f"OpenCL {variant}", "ms/frame": seconds_per_step(sim, max_steps=30) * 1e3})
+        bright, kernel = sim.bright.get(), streak_line_kernel(0.95, iteration, (1.0, 0.0))
+        name, seconds = _line_filter_seconds(bright, kernel)
+        rows.append({**label, "path": f"{name} (CPU, one direction x N)", "ms/frame": seconds * n * 1e3})
+        gl = _gl_seconds(sim)
+        if gl is not None:
+            rows.append({**label, "path": "GL passes (EGL)", "ms/frame": gl * 1e3})
+    return rows
+
+
+def _line_filter_seconds(image: np.ndarray, kernel: np.ndarray) -> tuple[str, float]:
+    """(name, seconds) of one direction's streaks on the CPU: cv2.filter2D where opencv is installed (it
+    correlates: the kernel flipped), else scipy.ndimage.convolve per channel; edges replicated as GL clamps."""
+    try:
+        import cv2
+    except ImportError:
+        from scipy import ndimage
+
+        return "scipy.ndimage.convolve", _seconds(
+            lambda: [ndimage.convolve(image[..., c], kernel, mode="nearest") for c in range(4)]
+        )
+    flipped = np.ascontiguousarray(kernel[::-1, ::-1], np.float32)
+    return "cv2.filter2D", _seconds(lambda: cv2.filter2D(image, -1, flipped, borderType=cv2.BORDER_REPLICATE))
+
+
+def _seconds(fn, repeats: int = 2) -> float:
+    import time
+
+    best = math.inf
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
+def _gl_seconds(sim) -> float | None:
+    """Seconds per frame of the viewer's GL passes on sim's source (None without an EGL context)."""
+    try:
+        from ugpcl.viewer.offscreen import context
+        from ugpcl.viewer.views.star_glow import GLStarGlow
+
+        context()
+    except Exception:  # no EGL (or no GL 4.3) on this machine: the table goes without the GL row
+        return None
+    from ugpcl.viewer.postfx import FloatTarget, float_texture
+
+    ctx = context()
+    glow, source, out = GLStarGlow(ctx), float_texture(ctx, sim.src.get()), FloatTarget(ctx, (sim.W, sim.H))
+
+    def run():
+        glow.run(source, sim.params, out)
+        ctx.finish()
+
+    run()
+    seconds = _seconds(run, repeats=5)
+    for obj in (glow, source, out):
+        obj.release()
+    return seconds
+
+
+PREVIEW = {"steps": 30, "width": 800, "height": 450}
+"""docs/img/star_glow.png: the Sample scene's settings on the demo's falling spheres after half a second."""
+
+SCENES = [
+    Scene(
+        STEM,
+        Simulation,
+        "StarGlow: Kawase light streaks from the highlights of lit falling spheres (vol.4 ch.4)",
+        defaults={
+            "threshold": 1.0,
+            "intensity": 1.3,
+            "divide": 7,
+            "iteration": 2,
+            "attenuation": 0.7,
+            "angle_of_streak": 30.0,
+            "num_of_streak": 5,
+        },
+        preview=PREVIEW,
+    )
+]
