@@ -208,6 +208,8 @@ LIMITS = {
         {"width": 1024, "height": 1024, "depth": 32},
     ),
     "distance from eye to every face of room_size >= 0.05 m": ({"eye": (0.0, 0.0499, 0.0)}, {"eye": (0.0, 0.05, 0.0)}),
+    "width // divide >= 1": ({"width": 6}, {"width": 7}),
+    "height // divide >= 1": ({"height": 6}, {"height": 7}),
 }
 """For each rule of every ``Params.limits``: a set that breaks it by one, and the set on its edge, which passes."""
 
