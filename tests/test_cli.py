@@ -168,6 +168,28 @@ def test_bench_prints_a_table(capsys):
     assert "interactions/s" in out and "flocking" in out and out.count("tiled") == 2
 
 
+def test_bench_shares_of_the_device_limits_and_json_records_match_the_table(capsys, tmp_path):
+    """`% copy bw` follows every `... bytes/s` column, computed from the measured copy bandwidth; --json holds one
+    record per float of the tables, with the row's sizes and variants as labels."""
+    from ugpcl.benchmark import device_limits
+    from ugpcl.cli import format_table
+    from ugpcl.runtime import Runtime
+
+    out_json = tmp_path / "b.json"
+    code, out, _ = run(capsys, "bench", "copy", "stable_fluids_2d", "--size", "32", "--json", str(out_json))
+    assert code == 0 and "## copy" in out and "% copy bw" in out
+    records = json.loads(out_json.read_text())
+    fluid = [r for r in records if r["chapter"] == "stable_fluids_2d"]
+    by_figure = {r["figure"]: r["value"] for r in fluid}
+    assert fluid[0]["labels"] == {"grid": "32^2"} and set(by_figure) >= {"ms/step", "Jacobi bytes/s", "% copy bw"}
+    limits = device_limits(Runtime())
+    share = 100 * by_figure["Jacobi bytes/s"] / limits.copy_bytes_per_s
+    assert by_figure["% copy bw"] == pytest.approx(share)
+    for record in records:  # every number of the JSON is in the printed table, as format_table shows it
+        shown = format_table([{"x": record["value"]}]).splitlines()[-1].strip()
+        assert shown in out, f"{record['figure']}={shown} not in the table"
+
+
 def test_console_script_runs(tmp_path):
     bin_dir = __import__("pathlib").Path(sys.executable).parent
     result = subprocess.run(

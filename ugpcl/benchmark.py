@@ -1,8 +1,16 @@
-"""Timing for ``ugpcl bench``: wall-clock seconds per step with the queue drained, never used in tests."""
+"""Timing for ``ugpcl bench``: wall-clock seconds per step with the queue drained, never used in tests; and the
+device's own limits that throughputs are a share of.
+
+A bench row may carry columns named ``... bytes/s`` (the least memory traffic its work needs, per second) or
+``... flop/s`` (its stated flop count, per second); ``ugpcl bench`` then adds ``% copy bw`` (of the device-to-device
+copy bandwidth that ``ugpcl bench copy`` measures) or ``% FP32 peak`` (of the FMA rate ``ugpcl bench peak``
+measures) after each.
+"""
 
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 
 def seconds_per_step(sim, min_seconds: float = 1.0, max_steps: int = 200, dt: float | None = None) -> float:
@@ -52,7 +60,7 @@ def bench_launch(runtime, sizes=None) -> list[dict]:
     n, batch = 256, 2000
     queue = runtime.queue
     a, b, out = (runtime.zeros(n, np.float32) for _ in range(3))
-    wrapper = runtime.program("launch").kernel("LaunchProbe")
+    wrapper = runtime.program("probes").kernel("LaunchProbe")
     plain = cl.Kernel(wrapper.cl.program, "LaunchProbe")  # a second cl.Kernel: its arguments are its own
     fixed = (a.data, b.data, out.data, np.int32(n), np.float32(2.0))
 
@@ -84,3 +92,110 @@ def bench_launch(runtime, sizes=None) -> list[dict]:
     for row in rows:
         row["x bare"] = row["host us/launch"] / bare
     return rows
+
+
+# {{{ the device's limits
+
+
+@dataclass(frozen=True)
+class DeviceLimits:
+    copy_bytes_per_s: float
+    """Device-to-device copy of a large buffer, bytes read plus bytes written per second."""
+    fp32_flops: float
+    """Independent FP32 fused multiply-adds (FmaProbe), flops per second (an FMA is 2)."""
+
+
+_limits: dict[int, DeviceLimits] = {}
+
+
+def device_limits(runtime) -> DeviceLimits:
+    """The device's measured limits (measured once per device and process: about a second)."""
+    key = runtime.device.int_ptr
+    if key not in _limits:
+        _limits[key] = DeviceLimits(copy_rate(runtime, _copy_size(runtime)), fp32_rate(runtime))
+    return _limits[key]
+
+
+def _copy_size(runtime) -> int:
+    """256 MiB, or less where the device holds less (an eighth of its memory, half its largest buffer)."""
+    d = runtime.device
+    return int(min(256 * 2**20, d.global_mem_size // 8, d.max_mem_alloc_size // 2)) // 16 * 16
+
+
+def copy_rate(runtime, nbytes: int) -> float:
+    """Bytes moved per second (read + write) by ``enqueue_copy`` of one buffer into another: the best of five."""
+    import pyopencl as cl
+
+    src = cl.Buffer(runtime.context, cl.mem_flags.READ_WRITE, nbytes)
+    dst = cl.Buffer(runtime.context, cl.mem_flags.READ_WRITE, nbytes)
+    queue = runtime.queue
+    cl.enqueue_fill_buffer(queue, src, b"\x01", 0, nbytes)
+    cl.enqueue_copy(queue, dst, src)  # warm-up: first touch of the pages
+    queue.finish()
+    copies = 4 if runtime.is_gpu else 1
+    best = float("inf")
+    for _ in range(5):
+        start = time.perf_counter()
+        for _ in range(copies):
+            cl.enqueue_copy(queue, dst, src)
+        queue.finish()
+        best = min(best, (time.perf_counter() - start) / copies)
+    src.release()
+    dst.release()
+    return 2 * nbytes / best
+
+
+def fp32_rate(runtime) -> float:
+    """Flops per second of FmaProbe over enough work-items to fill the device: the best of five launches."""
+    import numpy as np
+
+    d = runtime.device
+    n = d.max_compute_units * (2048 if runtime.is_gpu else 64)
+    rounds = 256 if runtime.is_gpu else 32
+    out = runtime.zeros(n, np.float32)
+    probe = runtime.program("probes").kernel("FmaProbe")
+    args = (out.data, np.int32(rounds), np.float32(0.999), np.float32(1e-3))
+    probe((n,), None, *args)
+    runtime.finish()
+    best = float("inf")
+    for _ in range(5):
+        start = time.perf_counter()
+        probe((n,), None, *args)
+        runtime.finish()
+        best = min(best, time.perf_counter() - start)
+    return n * rounds * 16 * 64 / best
+
+
+def bench_copy(runtime, sizes=None) -> list[dict]:
+    """Device-to-device copy bandwidth (``enqueue_copy`` of one buffer into another; bytes read plus written, the
+    best of five), per buffer size in MiB (--size); the largest is the limit memory-bound rows are a share of."""
+    sizes = sizes or [16, 64, _copy_size(runtime) // 2**20]
+    rows = []
+    for mib in sizes:
+        rate = copy_rate(runtime, mib * 2**20)
+        rows.append({"buffer MiB": mib, "GB/s": rate / 1e9})
+    return rows
+
+
+def bench_peak(runtime, sizes=None) -> list[dict]:
+    """FP32 peak as measured: FmaProbe, 8 independent float4 FMA chains per work-item and nothing else, the best of
+    five launches; compute-bound rows are a share of it. sizes: ignored."""
+    return [{"probe": "FmaProbe", "TFLOP/s": fp32_rate(runtime) / 1e12}]
+
+
+def with_shares(rows: list[dict], limits: DeviceLimits) -> list[dict]:
+    """``rows`` with ``% copy bw`` after each ``... bytes/s`` column and ``% FP32 peak`` after each ``... flop/s``."""
+    out = []
+    for row in rows:
+        shared = {}
+        for key, value in row.items():
+            shared[key] = value
+            if key.endswith("bytes/s") and isinstance(value, float):
+                shared["% copy bw"] = 100.0 * value / limits.copy_bytes_per_s
+            elif key.endswith("flop/s") and isinstance(value, float):
+                shared["% FP32 peak"] = 100.0 * value / limits.fp32_flops
+        out.append(shared)
+    return out
+
+
+# }}}

@@ -512,27 +512,53 @@ def parse_size(text: str, option: str = "--png-size") -> tuple[int, int]:
 
 
 def _benches() -> dict:
-    """What ``ugpcl bench`` can time: the runtime's launch cost, then every chapter module with a ``bench``."""
-    from .benchmark import bench_launch
+    """What ``ugpcl bench`` can time: the device's limits and launch cost, then every chapter module's ``bench``."""
+    from .benchmark import bench_copy, bench_launch, bench_peak
 
-    return {"launch": bench_launch, **{name: m.bench for name, m in modules().items() if hasattr(m, "bench")}}
+    device = {"copy": bench_copy, "peak": bench_peak, "launch": bench_launch}
+    return {**device, **{name: m.bench for name, m in modules().items() if hasattr(m, "bench")}}
+
+
+def bench_records(device: str, chapter: str, date: str, rows: list[dict]) -> list[dict]:
+    """One record per measured number of a bench table: the row's text and integer columns as labels (variant,
+    size), the float column as the figure (its name carries the unit: ``ms/step``, ``cell updates/s``) and the
+    value."""
+    records = []
+    for row in rows:
+        labels = {k: v for k, v in row.items() if not isinstance(v, float)}  # sizes are ints, figures floats
+        for key, value in row.items():
+            if key not in labels:
+                figure = {"device": device, "chapter": chapter, "date": date, "labels": labels}
+                records.append({**figure, "figure": key, "value": value})
+    return records
 
 
 def cmd_bench(args) -> int:
+    from .benchmark import device_limits, with_shares
+
     benches = _benches()
     names = list(benches) if args.all or not args.scene else args.scene
     for name in names:
         if name not in benches:
             raise UsageError(f"unknown bench {name!r}; valid: {', '.join(benches)}")
+    out = output_path(args.json, "--json", (".json",))
     runtime = Runtime(args.device)
     date = time.strftime("%Y-%m-%d")
+    records = []
     for name in names:
         bench = benches[name]
         rows = bench(runtime, args.size)
+        if any(key.endswith(("bytes/s", "flop/s")) for row in rows for key in row):
+            rows = with_shares(rows, device_limits(runtime))
         print(f"\n## {name}  ({runtime.label}, {date})")
         print(" ".join(bench.__doc__.split()))
         print(format_table(rows))
         sys.stdout.flush()
+        records += bench_records(runtime.label, name, date, rows)
+    if out:
+        with written_whole(out) as partial:
+            partial.write_text(json.dumps(records, indent=1) + "\n")
+        print(f"\nwrote {out} ({len(records)} figures)")
     return 0
 
 
@@ -612,9 +638,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
 
     p = command("bench", "time scenes and print throughput tables", cmd_bench, [device])
-    p.add_argument("scene", nargs="*", help="'launch' or chapter stems (none: all)")
+    p.add_argument("scene", nargs="*", help="copy, peak, launch or chapter stems (none: all)")
     p.add_argument("--all", action="store_true", help="every bench")
     p.add_argument("--size", type=int, nargs="+", default=None, help="problem sizes (default: the chapter's)")
+    p.add_argument("--json", default=None, metavar="FILE", help="also write every figure of the tables to FILE.json")
     return parser
 
 

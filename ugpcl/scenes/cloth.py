@@ -318,10 +318,16 @@ SUBSTEP_BATCH = 20
 """CSSimulation launches the bench runs back to back before it finishes the queue, as a frame's substeps run."""
 
 
+SUBSTEP_BYTES_PER_PARTICLE = 64
+"""A substep's least memory traffic per particle: read pos and prev, write both (float4 each); the neighbours'
+positions come from cache. The bench's ``% copy bw`` is this traffic's share of the device's copy bandwidth."""
+
+
 def bench(runtime, sizes=None) -> list[dict]:
     """For W = H = each size (main scene: 4 substeps, sphere on): ms per frame (the queue finished after each frame)
     with particle-updates/s (particles x substeps per second) and frames/s; one substep (a CSSimulation launch and
-    the ping-pong swap) in us, timed over 20 substeps back to back and one finish."""
+    the ping-pong swap) in us, timed over 20 substeps back to back and one finish, and as the least traffic a
+    substep needs (SUBSTEP_BYTES_PER_PARTICLE) per second."""
     sizes = sizes or ([64, 128, 256, 512] if runtime.is_gpu else [64, 128, 256])
     rows = []
     for n in sizes:
@@ -338,6 +344,7 @@ def bench(runtime, sizes=None) -> list[dict]:
                 "us/substep": substep * 1e6,
                 "particle-updates/s": updates / seconds,
                 "frames/s": 1.0 / seconds,
+                "substep bytes/s": SUBSTEP_BYTES_PER_PARTICLE * n * n / substep,
             }
         )
     return rows

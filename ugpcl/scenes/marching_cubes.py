@@ -318,7 +318,7 @@ def bench(runtime, sizes=None) -> list[dict]:
     """Marching cubes of the three spheres (repository radii, t = 0.3) on N^3 cells: ms for SampleField ((N+1)^3 field
     evaluations) and for each OpenCL path on that field, voxels (cells) per second of the meshing alone and of field +
     mesh, against scikit-image's marching_cubes (lorensen) meshing the same float32 field in the same run (where
-    scikit-image, a test dependency, is installed)."""
+    scikit-image, a test dependency, is installed); the field's write traffic (4 bytes per sample) per second."""
     try:
         from skimage.measure import marching_cubes as skimage_marching_cubes
     except ImportError:
@@ -342,6 +342,7 @@ def bench(runtime, sizes=None) -> list[dict]:
                     "triangles": sim.pool.count(),
                     "voxels/s mesh": cells / mesh_s,
                     "voxels/s field+mesh": cells / (field_s + mesh_s),
+                    "field bytes/s": 4 * (n + 1) ** 3 / field_s,
                 }
             )
         if skimage_marching_cubes is None:

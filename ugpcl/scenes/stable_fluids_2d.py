@@ -495,11 +495,17 @@ SWEEP_BATCH = 20
 """Jacobi sweeps the bench runs back to back before it finishes the queue, as a solve of gs_iterations sweeps does."""
 
 
+JACOBI_BYTES_PER_CELL = 12
+"""A Jacobi sweep's least memory traffic per cell: read p and the divergence, write p (4 bytes each); the
+neighbours' p come from cache. The bench's ``% copy bw`` is this traffic's share of the device's copy bandwidth."""
+
+
 def bench(runtime, sizes=None) -> list[dict]:
     """Per n x n grid (scene coefficients, circle stroke held, gs_iterations 2): ms per step (the whole Update: 2
     diffusions, 2 projections, 2 advections, 22 launches, the queue finished after each step) and cell updates/s
     (cells x steps/s); one Jacobi sweep of the pressure solve (ProjectStep2 with its walls, one launch) in us, timed
-    over 20 sweeps back to back and one finish as a solve runs them, as sweeps/s and cell updates/s."""
+    over 20 sweeps back to back and one finish as a solve runs them, as sweeps/s and cell updates/s, and as the
+    least traffic a sweep needs (JACOBI_BYTES_PER_CELL) per second."""
     sizes = sizes or ([256, 512, 1024, 2048] if runtime.is_gpu else [256, 512, 1024])
     rows = []
     for n in sizes:
@@ -516,6 +522,7 @@ def bench(runtime, sizes=None) -> list[dict]:
                 "us/Jacobi sweep": sweep * 1e6,
                 "Jacobi iterations/s": 1.0 / sweep,
                 "Jacobi cell updates/s": n * n / sweep,
+                "Jacobi bytes/s": JACOBI_BYTES_PER_CELL * n * n / sweep,
             }
         )
     return rows

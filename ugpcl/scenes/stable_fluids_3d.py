@@ -42,6 +42,7 @@ from ..runtime import round_up
 from ..scene import Params as BaseParams
 from ..scene import Scene, check_dt, param
 from ..scene import Simulation as BaseSimulation
+from .stable_fluids_2d import JACOBI_BYTES_PER_CELL
 
 STEM = "stable_fluids_3d"
 MAX_CELLS = 1 << 25
@@ -445,7 +446,8 @@ def bench(runtime, sizes=None) -> list[dict]:
     """Per grid n^3 and Jacobi sweeps per solve: ms per step (the whole Update: 2 diffusions, 2 projections,
     2 advections, the queue finished after each step), cell updates/s (cells x steps/s), and one Jacobi sweep of the
     pressure solve (ProjectStep2 with its walls, one launch) in us, timed over 20 sweeps back to back and one finish
-    as a solve runs them, as sweeps/s and cell updates/s."""
+    as a solve runs them, as sweeps/s and cell updates/s, and as the least traffic a sweep needs
+    (stable_fluids_2d.JACOBI_BYTES_PER_CELL) per second."""
     sizes = sizes or ([64, 128, 256] if runtime.is_gpu else [64, 128])
     rows = []
     for n in sizes:
@@ -465,6 +467,7 @@ def bench(runtime, sizes=None) -> list[dict]:
                     "us/Jacobi sweep": sweep * 1e6,
                     "Jacobi sweeps/s": 1.0 / sweep,
                     "Jacobi cell updates/s": cells / sweep,
+                    "Jacobi bytes/s": JACOBI_BYTES_PER_CELL * cells / sweep,
                 }
             )
     return rows
