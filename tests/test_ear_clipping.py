@@ -295,6 +295,113 @@ def test_random_stars_with_holes(seed):
 
 # }}}
 
+# {{{ the host clipper's grid search equals the book's scan over every live vertex
+
+
+class ScanClipper:
+    """The book's InitializeVertices / CheckVertex / EarClipping with the plain ear test: every live vertex is
+    checked against the triangle with CheckLine in float64 (numpy), the ear list is a Python list in FIFO order."""
+
+    def __init__(self, points):
+        self.x, self.y = np.asarray(points, float)[:, 0].copy(), np.asarray(points, float)[:, 1].copy()
+        n = len(self.x)
+        self.prev, self.next = np.roll(np.arange(n), 1), np.roll(np.arange(n), -1)
+        self.alive, self.count, self.ears = np.ones(n, bool), n, []
+
+    def is_ear(self, v):
+        p, q, x, y = self.prev[v], self.next[v], self.x, self.y
+        ax, ay, bx, by, cx, cy = x[p], y[p], x[v], y[v], x[q], y[q]
+        if not (ax - bx) * (cy - by) - (ay - by) * (cx - bx) > 0.0:
+            return None
+
+        def right_of(p1x, p1y, p2x, p2y):
+            return (x - p1x) * (p2y - p1y) - (p2x - p1x) * (y - p1y) >= 0.0
+
+        inside = right_of(bx, by, cx, cy) & right_of(cx, cy, ax, ay) & right_of(ax, ay, bx, by) & self.alive
+        corners = ((ax, ay), (bx, by), (cx, cy))
+        return not any(k not in (p, v, q) and (x[k], y[k]) not in corners for k in np.flatnonzero(inside))
+
+    def check_vertex(self, v):
+        ear = self.is_ear(v)
+        if ear and v not in self.ears:
+            self.ears.append(v)
+        elif ear is False and v in self.ears:
+            self.ears.remove(v)
+
+    def run(self):
+        """(triangles, the ear list before each clip)."""
+        for v in range(len(self.x)):
+            self.check_vertex(v)
+        triangles, lists = [], []
+        while self.ears:
+            lists.append(tuple(self.ears))
+            e = self.ears.pop(0)
+            p, q = int(self.prev[e]), int(self.next[e])
+            triangles.append((p, e, q))
+            if self.count == 3:
+                break
+            self.next[p], self.prev[q], self.alive[e], self.count = q, p, False, self.count - 1
+            self.check_vertex(p)
+            self.check_vertex(q)
+        return triangles, lists
+
+
+def fast_run(points):
+    clipper = ec.EarClipper(points)
+    clipper.initialize_vertices()
+    triangles, lists = [], []
+    while clipper.ears:
+        lists.append(tuple(clipper.ears))
+        triangles.append(clipper.clip())
+    return triangles, lists
+
+
+def hard_polygons(rng) -> list[np.ndarray]:
+    """Large and awkward inputs: a many-vertex star; star-shaped rings of 200-1500 vertices merged with holes
+    (bridge copies); coordinates snapped to a coarse lattice (collinear runs, repeated points); edges subdivided
+    with rounding noise (needle triangles); a self-intersecting random ring; far-off, tiny coordinates."""
+    polygons = [star(int(rng.integers(200, 1000)), 1.0, float(rng.uniform(0.2, 0.9)))]
+    n = int(rng.integers(200, 1500))
+    angles = np.sort(rng.uniform(0, 2 * np.pi, n))
+    r = rng.uniform(0.5, 1.0, n) * 10.0
+    outer = np.column_stack([r * np.cos(angles), r * np.sin(angles)])
+    holes = [np.array([[-1, -1], [-1, 1], [1, 1], [1, -1]]) * 0.8 + c for c in ([0.0, 0.0], [2.5, 0.3])]
+    polygons += merged_polygons([outer, *holes])
+    polygons.append(np.round(outer / 3.0))
+    t = np.linspace(0.0, 1.0, 40)[:-1, None]
+    corners = np.array([[0.0, 0.0], [0.0, 3.0], [4.0, 3.0], [4.0, 0.0]])
+    sides = [a + t * (b - a) for a, b in zip(corners, np.roll(corners, -1, axis=0), strict=True)]
+    polygons.append(np.concatenate(sides) * rng.uniform(0.1, 10.0) + rng.normal(0.0, 1e-14, (156, 2)))
+    polygons.append(rng.uniform(-1.0, 1.0, (int(rng.integers(30, 300)), 2)))
+    polygons.append(star(50, 1.0, 0.5) * 1e-7 + 1e5)
+    return polygons
+
+
+@pytest.mark.parametrize("draw", range(3))
+def test_grid_search_equals_the_scan_over_every_vertex(seed, draw):
+    rng = np.random.default_rng([seed, draw])
+    for i, polygon in enumerate(hard_polygons(rng)):
+        expected, lists = ScanClipper(polygon).run()
+        found, found_lists = fast_run(polygon)
+        assert found == expected, (
+            f"polygon {i} ({len(polygon)} vertices): first mismatch at {first_diff(found, expected)}"
+        )
+        assert found_lists == lists
+
+
+def first_diff(a, b) -> int:
+    return next((k for k, (u, w) in enumerate(zip(a, b, strict=False)) if u != w), min(len(a), len(b)))
+
+
+def test_grid_search_on_the_bench_star():
+    ring = star(1000, 1.0, 0.5)
+    expected, _ = ScanClipper(ring).run()
+    assert fast_run(ring)[0] == expected
+    assert len(expected) == len(ring) - 2
+
+
+# }}}
+
 # {{{ mapbox-earcut
 
 

@@ -8,7 +8,8 @@ host in float64, following the chapter's ``Triangulation.cs`` step by step:
    joined by a zero-width bridge from its right-most vertex M to a visible outer vertex P, CombinePolygon), then
    ``EarClipper`` clips the merged polygon: InitializeVertices fills the FIFO ear list, EarClipping takes its head,
    emits (prev, ear, next), unlinks the ear and re-checks both neighbours (CheckVertex), which are appended at the
-   end when they became ears.
+   end when they became ears. The ear test reads only the live vertices near the triangle (a z-order grid,
+   ``EarClipper``) and answers as the book's scan over all of them does.
 3. ``constrained_delaunay`` (not in the book): Lawson edge flips over every edge that is not an input ring edge.
 
 ``variant="book"`` sorts the rings by area and the holes by right-most x with the book's comparator
@@ -21,6 +22,7 @@ from __future__ import annotations
 
 import logging
 import math
+from array import array
 from collections import deque
 from dataclasses import dataclass, field
 from functools import cmp_to_key
@@ -286,26 +288,190 @@ def vector_angle(a, b) -> float:
 
 # {{{ InitializeVertices, CheckVertex, EarClipping
 
+WELL_SHAPED = 2.0**-30
+"""An ear triangle whose doubled area exceeds this times the square of its bounding box's longer side has no angle
+so thin that float64 rounding could let a vertex farther than ``NEAR`` times that side from it pass the ear test
+(then the test reads only the vertices of nearby grid cells); a thinner one reads every live vertex."""
+NEAR = 2.0**-10
+"""How close to a well-shaped ear triangle, relative to its longer side, a vertex must be to be read by the test."""
+GRID_BITS_OVER = 2
+"""The grid has about 2^this times sqrt(n) cells a side (16 to 64 cells per vertex) ..."""
+MAX_GRID_BITS = 11
+"""... and at most 2^this (its table of where each cell's vertices start: 4^this int32)."""
+BATCH_ABOVE = 64
+"""Polygons of at least this many vertices run InitializeVertices' ear tests together in numpy."""
+SPLIT_ABOVE = 32
+"""A z-order range of more vertices than this is split in two."""
+TEST_BOX_ABOVE = 8
+"""A z-order range of more vertices than this is dropped when its box is far from the triangle."""
+EPSILON = 2.0**-52
+"""float64's machine epsilon (rounding error bounds)."""
+
+
+def _spread_bits() -> np.ndarray:
+    """Every 16-bit integer with its bits moved to the even positions: a cell's z-order key (Morton code) is
+    spread(i) | spread(j) << 1."""
+    v = np.arange(1 << 16, dtype=np.int64)
+    for shift, mask in ((8, 0x00FF00FF), (4, 0x0F0F0F0F), (2, 0x33333333), (1, 0x55555555)):
+        v = (v | (v << shift)) & mask
+    return v
+
+
+SPREAD = _spread_bits()
+SPREAD_LIST = SPREAD.tolist()
+
 
 class EarClipper:
     """The clipping state of one merged polygon: the book's ``vertices``, ``indices`` (a LinkedList<int>, here the
-    ``prev``/``next`` arrays and ``alive``) and ``earTipList`` (a list in FIFO order plus a set for membership)."""
+    ``prev``/``next`` lists; clipped vertices leave ``z_live``) and ``earTipList`` (a FIFO list, here linked through
+    ``ear_next``/``ear_prev`` so that removing an ear anywhere costs O(1); ``listed`` marks its members).
+
+    The ear test asks whether any live vertex lies in or on the triangle (float64 CheckLine signs). Only vertices
+    near the triangle can, so the vertices are bucketed once into a grid of about n cells, sorted by the cells'
+    z-order keys: the cells of any box are a range of that order, and ranges that are long are split in two along
+    the z-order until they are short or provably far from the triangle. The vertices read are then tested with the
+    same expressions as the book's scan over all of them, so the answer is the same."""
 
     def __init__(self, points: np.ndarray):
-        self.points = np.asarray(points, np.float64)
+        self.points = np.asarray(points, np.float64).reshape(-1, 2)
         n = len(self.points)
-        self.x, self.y = self.points[:, 0].copy(), self.points[:, 1].copy()
-        self.prev = np.roll(np.arange(n), 1)
-        self.next = np.roll(np.arange(n), -1)
-        self.alive = np.ones(n, bool)
+        self.x, self.y = self.points[:, 0].tolist(), self.points[:, 1].tolist()
+        self.prev = [(i - 1) % n for i in range(n)]
+        self.next = [(i + 1) % n for i in range(n)]
         self.count = n
-        self.ears: list[int] = []
-        self.listed: set[int] = set()
+        self.ear_next, self.ear_prev = [n] * (n + 1), [n] * (n + 1)  # index n (or -1): the head/tail sentinel
+        self.listed = [False] * n
+        self._bucket()
+
+    def _bucket(self) -> None:
+        """The grid (``cells`` a side over the polygon's bounding square): the vertex ids sorted by their cell's
+        z-order key (``z_order``, coordinates ``zx``/``zy``) and, for every key, where its cell's vertices start in
+        that order (``z_start``). Non-finite or huge coordinates (``gridded`` False) make every test a full scan."""
+        n = len(self.points)
+        lo, hi = (self.points.min(axis=0), self.points.max(axis=0)) if n else (np.zeros(2), np.ones(2))
+        extent = float(max(hi - lo))
+        magnitude = float(np.abs(np.concatenate([lo, hi])).max())
+        self.gridded = bool(np.isfinite(magnitude)) and magnitude < 1e150 and extent > 0.0
+        extent = extent if self.gridded else 1.0
+        self.cells = 1 << min(MAX_GRID_BITS, GRID_BITS_OVER + math.ceil(math.log2(max(n, 2)) / 2))
+        self.origin, self.scale = (float(lo[0]), float(lo[1])), self.cells / extent
+        self.cell_size = extent / self.cells
+        self.slop = 16.0 * EPSILON * (magnitude + extent)  # how far rounding can put a vertex outside its cell
+        with np.errstate(invalid="ignore"):
+            cells = np.nan_to_num((self.points - lo) * self.scale).astype(np.int64).clip(0, self.cells - 1)
+        keys = SPREAD[cells[:, 0]] | (SPREAD[cells[:, 1]] << 1)
+        order = np.argsort(keys, kind="stable")
+        self.z_order = order.tolist()
+        self.z_start = array("i", np.searchsorted(keys[order], np.arange(self.cells**2 + 1)).astype(np.int32).tobytes())
+        self.z_rank = np.argsort(order).tolist()
+        self.z_x, self.z_y = self.points[order, 0], self.points[order, 1]
+        self.zx, self.zy = self.z_x.tolist(), self.z_y.tolist()
+        self.z_alive = np.ones(n, bool)
+        self.z_live = list(range(n + 1))  # union-find: a rank points to itself while its vertex lives (n: the end)
+
+    def live_from(self, rank: int) -> int:
+        """The first rank at or after ``rank`` whose vertex is alive (n if none), compressing the path."""
+        live = self.z_live
+        found = rank
+        while live[found] != found:
+            found = live[found]
+        while live[rank] != found:
+            live[rank], rank = found, live[rank]
+        return found
+
+    @property
+    def ears(self) -> list[int]:
+        """The ear list, head first."""
+        found, e = [], self.ear_next[-1]
+        while e != len(self.listed):
+            found.append(e)
+            e = self.ear_next[e]
+        return found
 
     def initialize_vertices(self) -> None:
-        """InitializeVertices: the first ear list, vertices in ring order."""
-        for v in range(len(self.points)):
-            self.check_vertex(v)
+        """InitializeVertices: the first ear list, vertices in ring order. Nothing is clipped yet, so the ear tests
+        are independent: they run together (``initial_ears``) on all but small polygons."""
+        n = len(self.points)
+        ears = self.initial_ears() if n >= BATCH_ABOVE and self.gridded else map(self.is_ear, range(n))
+        for v, ear in enumerate(ears):
+            if ear:
+                self._append(v)
+
+    def initial_ears(self) -> list[bool | None]:
+        """``is_ear`` of every vertex at once: is_ear's grid search run breadth first over all well-shaped convex
+        corners together in numpy, then its CheckLine expressions on the vertices read; the other convex corners
+        go through ``is_ear``."""
+        a, b, c = self.points[self.prev], self.points, self.points[self.next]
+        ax, ay, bx, by, cx, cy = a[:, 0], a[:, 1], b[:, 0], b[:, 1], c[:, 0], c[:, 1]
+        doubled_area = (ax - bx) * (cy - by) - (ay - by) * (cx - bx)
+        lo, hi = np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
+        side = (hi - lo).max(axis=1)
+        convex = doubled_area > 0.0
+        batched = convex & (side > 1e-100) & (doubled_area > WELL_SHAPED * side * side)
+        t = np.flatnonzero(batched)
+        near = side[t, None] * NEAR
+        box = np.hstack([lo[t] - near, hi[t] + near]) - np.tile(self.origin, 2)  # lox, loy, hix, hiy
+        cell = (box * self.scale).astype(np.int64).clip(0, self.cells - 1)
+        i0, j0, i1, j1 = cell.T
+        beyond = self.beyond(side[t], near[:, 0])
+        edges = [  # (p1, p2 - p1, limit) of the edges (v, next), (next, prev), (prev, v) of every triangle
+            (p1[t], d, -beyond * np.abs(d).max(axis=1))
+            for p1, d in ((b, c[t] - b[t]), (c, a[t] - c[t]), (a, b[t] - a[t]))
+        ]
+        start, size, (x0, y0) = np.frombuffer(self.z_start, np.int32), self.cell_size, self.origin
+        where, first, last = ([np.zeros(0, np.int64)] for _ in range(3))
+        k = np.arange(len(t))  # the triangle of each box
+        while len(k):
+            z0, z1 = SPREAD[i0] | (SPREAD[j0] << 1), SPREAD[i1] | (SPREAD[j1] << 1)
+            lo_rank, hi_rank = start[z0], start[z1 + 1]
+            far = np.zeros(len(k), bool)
+            for p1, d, limit in edges:
+                dx, dy = d[k, 0], d[k, 1]
+                ox = x0 + np.where(dy > 0.0, i1 + 1, i0) * size
+                oy = y0 + np.where(dx > 0.0, j0, j1 + 1) * size
+                far |= (ox - p1[k, 0]) * dy - dx * (oy - p1[k, 1]) < limit[k]
+            keep = (hi_rank > lo_rank) & ~far
+            split = keep & (hi_rank - lo_rank > SPLIT_ABOVE) & (z0 != z1)
+            read = keep & ~split
+            where.append(k[read])
+            first.append(lo_rank[read])
+            last.append(hi_rank[read])
+            bit = np.frexp((z0 ^ z1)[split].astype(float))[1] - 1
+            half, in_y = bit >> 1, (bit & 1).astype(bool)
+            i0, i1, j0, j1, k = i0[split], i1[split], j0[split], j1[split], k[split]
+            mid_i, mid_j = (i1 >> half) << half, (j1 >> half) << half
+            i0, i1 = (
+                np.concatenate([i0, np.where(in_y, i0, mid_i)]),
+                np.concatenate([np.where(in_y, i1, mid_i - 1), i1]),
+            )
+            j0, j1 = (
+                np.concatenate([j0, np.where(in_y, mid_j, j0)]),
+                np.concatenate([np.where(in_y, mid_j - 1, j1), j1]),
+            )
+            k = np.concatenate([k, k])
+        where, first, last = np.concatenate(where), np.concatenate(first), np.concatenate(last)
+        counts = last - first
+        pair = np.repeat(where, counts)
+        rank = np.arange(counts.sum()) + np.repeat(first - np.cumsum(counts) + counts, counts)
+        ox, oy, tri = self.z_x[rank], self.z_y[rank], t[pair]
+        inside = np.ones(len(rank), bool)
+        corner = np.zeros(len(rank), bool)
+        for p1, p2 in ((b, c), (c, a), (a, b)):
+            (px, py), (qx, qy) = p1[tri].T, p2[tri].T
+            inside &= (ox - px) * (qy - py) - (qx - px) * (oy - py) >= 0.0
+            corner |= (ox == px) & (oy == py)
+        blocked = np.zeros(len(self.points), bool)
+        blocked[tri[inside & ~corner]] = True
+        ears: list[bool | None] = [None] * len(self.points)
+        for v in np.flatnonzero(convex).tolist():
+            ears[v] = not blocked[v] if batched[v] else self.is_ear(v)
+        return ears
+
+    def beyond(self, side, near):
+        """A grid box is farther than ``near`` from a triangle whose bounding box's longer side is ``side`` when
+        all its corners lie beyond one edge's line by more than this times the edge's longer coordinate difference
+        (1.5 > sqrt 2 turns that into the edge's length; rounding of the cell bounds and of CheckLine included)."""
+        return 1.5 * near + 2.0 * self.slop + 16.0 * EPSILON * (side + 2.0 * (near + self.cell_size + self.slop))
 
     def is_ear(self, v: int) -> bool | None:
         """None for a reflex vertex; else whether no other live vertex lies in or on the triangle (prev, v, next).
@@ -313,47 +479,139 @@ class EarClipper:
         p, q = self.prev[v], self.next[v]
         x, y = self.x, self.y
         ax, ay, bx, by, cx, cy = x[p], y[p], x[v], y[v], x[q], y[q]
-        if not (ax - bx) * (cy - by) - (ay - by) * (cx - bx) > 0.0:
+        doubled_area = (ax - bx) * (cy - by) - (ay - by) * (cx - bx)
+        if not doubled_area > 0.0:
             return None
-
-        def right_of(p1x, p1y, p2x, p2y):  # CheckLine(o, p1, p2) >= 0 for every vertex o
-            return (x - p1x) * (p2y - p1y) - (p2x - p1x) * (y - p1y) >= 0.0
-
-        inside = right_of(bx, by, cx, cy) & right_of(cx, cy, ax, ay) & right_of(ax, ay, bx, by) & self.alive
-        for k in np.flatnonzero(inside):
-            if k in (p, v, q) or (x[k], y[k]) in ((ax, ay), (bx, by), (cx, cy)):
+        lox, hix, loy, hiy = min(ax, bx, cx), max(ax, bx, cx), min(ay, by, cy), max(ay, by, cy)
+        side = max(hix - lox, hiy - loy)
+        if not (self.gridded and side > 1e-100 and doubled_area > WELL_SHAPED * side * side):
+            return self._scan_all(p, v, q)
+        near = side * NEAR
+        lox, hix, loy, hiy = lox - near, hix + near, loy - near, hiy + near
+        # CheckLine(o, p1, p2) >= 0 for the edges (v, next), (next, prev), (prev, v): o in or on the triangle
+        bcx, bcy, cax, cay, abx, aby = cx - bx, cy - by, ax - cx, ay - cy, bx - ax, by - ay
+        corners = ((ax, ay), (bx, by), (cx, cy))
+        beyond, size = self.beyond(side, near), self.cell_size
+        lim_bc = -beyond * max(abs(bcx), abs(bcy))
+        lim_ca = -beyond * max(abs(cax), abs(cay))
+        lim_ab = -beyond * max(abs(abx), abs(aby))
+        x0, y0, scale, top = self.origin[0], self.origin[1], self.scale, self.cells - 1
+        spread, start, zx, zy, live, live_from = (
+            SPREAD_LIST,
+            self.z_start,
+            self.zx,
+            self.zy,
+            self.z_live,
+            self.live_from,
+        )
+        i0, i1, j0, j1 = (
+            int((lox - x0) * scale),
+            int((hix - x0) * scale),
+            int((loy - y0) * scale),
+            int((hiy - y0) * scale),
+        )
+        i0, i1, j0, j1 = max(i0, 0), min(i1, top), max(j0, 0), min(j1, top)  # the cells of the grown bounding box
+        z0, z1 = spread[i0] | (spread[j0] << 1), spread[i1] | (spread[j1] << 1)
+        boxes = [(i0, i1, j0, j1, z0, z1, start[z0], start[z1 + 1])]
+        while boxes:
+            i0, i1, j0, j1, z0, z1, first, last = boxes.pop()
+            rank = first if live[first] == first else live_from(first)
+            if rank >= last:
                 continue
-            return False
+            if last - first > TEST_BOX_ABOVE:
+                left, right, bottom, upper = x0 + i0 * size, x0 + (i1 + 1) * size, y0 + j0 * size, y0 + (j1 + 1) * size
+                # each edge's CheckLine at the box corner deepest inside its half-plane
+                if (
+                    ((right if bcy > 0.0 else left) - bx) * bcy - bcx * ((bottom if bcx > 0.0 else upper) - by) < lim_bc
+                    or ((right if cay > 0.0 else left) - cx) * cay - cax * ((bottom if cax > 0.0 else upper) - cy)
+                    < lim_ca
+                    or ((right if aby > 0.0 else left) - ax) * aby - abx * ((bottom if abx > 0.0 else upper) - ay)
+                    < lim_ab
+                ):
+                    continue
+                if last - first > SPLIT_ABOVE and z0 != z1:
+                    bit = (z0 ^ z1).bit_length() - 1  # split where the box's z-order range jumps
+                    half = bit >> 1
+                    if bit & 1:
+                        mid = (j1 >> half) << half
+                        low, high = (i0, i1, j0, mid - 1), (i0, i1, mid, j1)
+                    else:
+                        mid = (i1 >> half) << half
+                        low, high = (i0, mid - 1, j0, j1), (mid, i1, j0, j1)
+                    z_low, z_high = spread[low[1]] | (spread[low[3]] << 1), spread[high[0]] | (spread[high[2]] << 1)
+                    if start[z_low + 1] > first:  # halves without vertices are not kept
+                        boxes.append((*low, z0, z_low, first, start[z_low + 1]))
+                    if last > start[z_high]:
+                        boxes.append((*high, z_high, z1, start[z_high], last))
+                    continue
+            while rank < last:  # p, v, q themselves are skipped as corners
+                ox, oy = zx[rank], zy[rank]
+                rank = rank + 1 if live[rank + 1] == rank + 1 else live_from(rank + 1)
+                if (
+                    lox <= ox <= hix
+                    and loy <= oy <= hiy
+                    and (ox - bx) * bcy - bcx * (oy - by) >= 0.0
+                    and (ox - cx) * cay - cax * (oy - cy) >= 0.0
+                    and (ox - ax) * aby - abx * (oy - ay) >= 0.0
+                    and (ox, oy) not in corners
+                ):
+                    return False
+        return True
+
+    def _scan_all(self, p: int, v: int, q: int) -> bool:
+        """The ear test over every live vertex (for sliver triangles and non-finite or huge coordinates)."""
+        x, y = self.x, self.y
+        ax, ay, bx, by, cx, cy = x[p], y[p], x[v], y[v], x[q], y[q]
+        ox, oy = self.z_x, self.z_y
+        inside = (
+            self.z_alive
+            & ((ox - bx) * (cy - by) - (cx - bx) * (oy - by) >= 0.0)
+            & ((ox - cx) * (ay - cy) - (ax - cx) * (oy - cy) >= 0.0)
+            & ((ox - ax) * (by - ay) - (bx - ax) * (oy - ay) >= 0.0)
+        )
+        for k in np.flatnonzero(inside).tolist():
+            k = self.z_order[k]
+            if k not in (p, v, q) and (x[k], y[k]) not in ((ax, ay), (bx, by), (cx, cy)):
+                return False
         return True
 
     def check_vertex(self, v: int) -> None:
         """CheckVertex: a convex vertex becomes an ear (appended at the end) or stops being one (removed in place);
         a reflex vertex leaves the list as it is (the book's CheckVertex only acts on convex vertices)."""
         ear = self.is_ear(v)
-        if ear is None:
+        if ear is None or ear == self.listed[v]:
             return
-        if ear and v not in self.listed:
-            self.ears.append(v)
-            self.listed.add(v)
-        elif not ear and v in self.listed:
-            self.ears.remove(v)
-            self.listed.discard(v)
+        if ear:
+            self._append(v)
+        else:
+            self._unlist(v)
+
+    def _append(self, v: int) -> None:
+        tail = self.ear_prev[-1]
+        self.ear_next[tail], self.ear_prev[v], self.ear_next[v], self.ear_prev[-1] = v, tail, len(self.listed), v
+        self.listed[v] = True
+
+    def _unlist(self, v: int) -> None:
+        before, after = self.ear_prev[v], self.ear_next[v]
+        self.ear_next[before], self.ear_prev[after] = after, before
+        self.listed[v] = False
 
     def clip(self) -> tuple[int, int, int] | None:
         """One pass of EarClipping's loop: the head ear's triangle (prev, ear, next), or None when the list is empty.
         After the last triangle (3 vertices left) the ear list is cleared."""
-        if not self.ears:
+        e = self.ear_next[-1]
+        if e == len(self.listed):
             return None
-        e = self.ears[0]
-        p, q = int(self.prev[e]), int(self.next[e])
+        p, q = self.prev[e], self.next[e]
         if self.count == 3:
-            self.ears.clear()
-            self.listed.clear()
+            self.ear_next[-1] = self.ear_prev[-1] = len(self.listed)
+            self.listed = [False] * len(self.listed)
             return p, e, q
-        self.ears.pop(0)
-        self.listed.discard(e)
+        self._unlist(e)
         self.next[p], self.prev[q] = q, p
-        self.alive[e] = False
+        rank = self.z_rank[e]
+        self.z_alive[rank] = False
+        self.z_live[rank] = rank + 1
         self.count -= 1
         self.check_vertex(p)
         self.check_vertex(q)
@@ -361,6 +619,7 @@ class EarClipper:
 
 
 # }}}
+
 
 # {{{ Triangulate
 
@@ -425,8 +684,8 @@ def triangulate(rings, variant: str = "fixed", record: bool = False) -> Triangul
         clipper.initialize_vertices()
         first = len(triangles)
         while True:
-            if trace is not None and clipper.ears:
-                trace.append(tuple(offset + e for e in clipper.ears))
+            if trace is not None and (ears := clipper.ears):
+                trace.append(tuple(offset + e for e in ears))
             triangle = clipper.clip()
             if triangle is None:
                 break
