@@ -4,13 +4,17 @@
 //   1. ForceCS        boid_data -> boid_force: separation/alignment/cohesion against all n boids, streamed through
 //                     __local tiles of SIMULATION_BLOCK_SIZE boids (two barriers per tile, as the book)
 //      ForceCS_naive  the same sums read straight from global memory (reference and benchmark baseline)
+//      ForceCS_cpu    the same sums for CPU_LANES boids per work-item in the lanes of float16 vectors, no __local
+//                     memory and no barriers: what variant=tiled runs on CPU devices (PoCL)
 //      ForceCS_grid   the same sums over the boids in the 27 grid cells around each boid (the chapter's summary:
 //                     "a grid would make the neighbour search faster"); the grid comes from grid.cl, built by
 //                     ugpcl.grid.UniformGrid on the positions with cell size = the largest radius
 //   2. IntegrateCS    boid_data, boid_force -> boid_data: wall avoidance, explicit Euler, |velocity| <= max_speed
 // Build defines: SIMULATION_BLOCK_SIZE = work-group size = tile length (book: 256).
 // Differences from the book: n need not be a multiple of the block size (padding work-items run every barrier
-// and write nothing); a rule whose average direction is the zero vector steers by 0 instead of normalize(0) = NaN.
+// and write nothing); a rule whose average direction is the zero vector steers by 0 instead of normalize(0) = NaN;
+// a pair is tested and weighted by its squared distance (no sqrt, one reciprocal, no branch per rule): the same
+// sums up to float rounding.
 #include "boid.h"  // Boid {float4 velocity, position}: 32 B; numpy mirror BOID_DTYPE
 #include "grid.h"  // grid_neighbours: the one neighbour-cell loop of the sorted-key uniform grid
 
@@ -42,30 +46,30 @@ typedef struct {
 } Neighbourhood;
 
 typedef struct {
-    float separate_radius, alignment_radius, cohesion_radius;
+    float separate_radius2, alignment_radius2, cohesion_radius2;  // squares of the book's radii
     float max_speed, max_steer_force;
     float separate_weight, alignment_weight, cohesion_weight;
-    float max_radius2;  // square of the largest radius (not a book variable: the early exit above)
+    float max_radius2;  // square of the largest radius (not a book variable: the early exit below)
 } Rules;
 
 // Book's inner loop body: boid at p_position meets a neighbour; dist > 0 skips itself and coincident boids.
+// Branch-free per rule: dist <= radius is tested as dist^2 <= radius^2, and the book's normalize(diff) / dist is
+// diff / dist^2, so a pair costs one reciprocal instead of a sqrt, a normalize and three divisions. native_recip
+// is 1/x on PoCL and Oclgrind and within 1 ulp on NVIDIA (rcp.approx), far inside the tests' rtol 1e-4.
 inline void meet(Neighbourhood* nb, const Rules* r, float3 p_position, float3 n_position, float3 n_velocity) {
-    float3 diff = p_position - n_position;
-    float dist2 = dot(diff, diff);
+    const float3 diff = p_position - n_position;
+    const float dist2 = diff.x * diff.x + diff.y * diff.y + diff.z * diff.z;  // as ForceCS_cpu's lanes, not dot()
     if (dist2 > r->max_radius2) return;  // outside every radius: the common case once the flock spreads out
-    float dist = sqrt(dist2);
-    if (dist > 0.0f && dist <= r->separate_radius) {  // separation: away from the neighbour, weighted by 1/dist
-        nb->sep_pos_sum += normalize(diff) / dist;
-        nb->sep_count++;
-    }
-    if (dist > 0.0f && dist <= r->alignment_radius) {  // alignment: the neighbours' mean velocity
-        nb->ali_vel_sum += n_velocity;
-        nb->ali_count++;
-    }
-    if (dist > 0.0f && dist <= r->cohesion_radius) {  // cohesion: the neighbours' centroid
-        nb->coh_pos_sum += n_position;
-        nb->coh_count++;
-    }
+    const bool near = dist2 > 0.0f;
+    const bool sep = near && dist2 <= r->separate_radius2;  // separation: away from the neighbour, weighted 1/dist
+    const bool ali = near && dist2 <= r->alignment_radius2;  // alignment: the neighbours' mean velocity
+    const bool coh = near && dist2 <= r->cohesion_radius2;   // cohesion: the neighbours' centroid
+    nb->sep_pos_sum += sep ? diff * native_recip(dist2) : (float3)(0.0f);
+    nb->ali_vel_sum += ali ? n_velocity : (float3)(0.0f);
+    nb->coh_pos_sum += coh ? n_position : (float3)(0.0f);
+    nb->sep_count += sep;
+    nb->ali_count += ali;
+    nb->coh_count += coh;
 }
 
 // desired direction at full speed minus the current velocity, limited to max_steer_force.
@@ -87,9 +91,9 @@ inline float4 steering_force(const Neighbourhood* nb, const Rules* r, float3 p_p
     float separate_radius, float alignment_radius, float cohesion_radius, float max_speed, float max_steer_force, \
         float separate_weight, float alignment_weight, float cohesion_weight
 #define RULES_INIT                                                                                        \
-    {separate_radius, alignment_radius, cohesion_radius, max_speed, max_steer_force,                       \
-     separate_weight, alignment_weight, cohesion_weight,                                                   \
-     pow(fmax(separate_radius, fmax(alignment_radius, cohesion_radius)), 2.0f)}
+    {separate_radius * separate_radius, alignment_radius * alignment_radius, cohesion_radius * cohesion_radius, \
+     max_speed, max_steer_force, separate_weight, alignment_weight, cohesion_weight,                        \
+     fmax(separate_radius * separate_radius, fmax(alignment_radius * alignment_radius, cohesion_radius * cohesion_radius))}
 
 __kernel __attribute__((reqd_work_group_size(SIMULATION_BLOCK_SIZE, 1, 1)))
 void ForceCS(const __global Boid* boid_data, __global float4* boid_force, int n, RULES_ARGS) {
@@ -118,6 +122,72 @@ __kernel void ForceCS_naive(const __global Boid* boid_data, __global float4* boi
     Neighbourhood nb = {(float3)(0.0f), (float3)(0.0f), (float3)(0.0f), 0, 0, 0};
     for (int j = 0; j < n; j++) meet(&nb, &rules, me.position.xyz, boid_data[j].position.xyz, boid_data[j].velocity.xyz);
     boid_force[p_id] = steering_force(&nb, &rules, me.position.xyz, me.velocity.xyz);
+}
+
+// CPU_LANES boids per work-item, one per lane of a float16 (an AVX-512 register, two AVX2 ones); every other boid
+// is read once per work-item and broadcast to the lanes. Without barriers PoCL runs no work-group loop per tile, and
+// the explicit vectors do not depend on its auto-vectoriser. Lane by lane this is meet() above on the neighbours
+// in index order: equal to ForceCS_naive up to contraction. Lanes past n copy boid n-1 and write nothing.
+#define CPU_LANES 16
+typedef struct {
+    float16 sep_x, sep_y, sep_z, ali_x, ali_y, ali_z, coh_x, coh_y, coh_z;
+    int16 sep_count, ali_count, coh_count;  // negated: a true vector comparison is -1 (count_lane flips the sign)
+} NeighbourhoodLanes;
+
+inline float lane(float16 v, int l) {
+    float all[CPU_LANES];
+    vstore16(v, 0, all);
+    return all[l];
+}
+
+inline int count_lane(int16 v, int l) {
+    int all[CPU_LANES];
+    vstore16(v, 0, all);
+    return -all[l];
+}
+
+__kernel void ForceCS_cpu(const __global Boid* boid_data, __global float4* boid_force, int n, RULES_ARGS) {
+    const int first = get_global_id(0) * CPU_LANES;
+    if (first >= n) return;
+    const Rules rules = RULES_INIT;
+    float own[6][CPU_LANES];  // position xyz, velocity xyz of this work-item's boids
+    for (int l = 0; l < CPU_LANES; l++) {
+        const Boid b = boid_data[min(first + l, n - 1)];
+        own[0][l] = b.position.x, own[1][l] = b.position.y, own[2][l] = b.position.z;
+        own[3][l] = b.velocity.x, own[4][l] = b.velocity.y, own[5][l] = b.velocity.z;
+    }
+    const float16 px = vload16(0, own[0]), py = vload16(0, own[1]), pz = vload16(0, own[2]);
+    const float16 zero = 0.0f;
+    NeighbourhoodLanes nb = {zero, zero, zero, zero, zero, zero, zero, zero, zero, (int16)(0), (int16)(0), (int16)(0)};
+    for (int j = 0; j < n; j++) {
+        const float4 n_position = boid_data[j].position;
+        const float16 dx = px - n_position.x, dy = py - n_position.y, dz = pz - n_position.z;
+        const float16 dist2 = dx * dx + dy * dy + dz * dz;
+        if (!any(dist2 <= rules.max_radius2)) continue;  // every lane outside every radius
+        const float4 n_velocity = boid_data[j].velocity;
+        const int16 near = dist2 > 0.0f;
+        const int16 sep = near & (dist2 <= rules.separate_radius2);
+        const int16 ali = near & (dist2 <= rules.alignment_radius2);
+        const int16 coh = near & (dist2 <= rules.cohesion_radius2);
+        const float16 inv = native_recip(dist2);
+        nb.sep_x += select(zero, dx * inv, sep), nb.sep_y += select(zero, dy * inv, sep);
+        nb.sep_z += select(zero, dz * inv, sep);
+        nb.ali_x += select(zero, (float16)n_velocity.x, ali), nb.ali_y += select(zero, (float16)n_velocity.y, ali);
+        nb.ali_z += select(zero, (float16)n_velocity.z, ali);
+        nb.coh_x += select(zero, (float16)n_position.x, coh), nb.coh_y += select(zero, (float16)n_position.y, coh);
+        nb.coh_z += select(zero, (float16)n_position.z, coh);
+        nb.sep_count += sep, nb.ali_count += ali, nb.coh_count += coh;
+    }
+    for (int l = 0; l < CPU_LANES && first + l < n; l++) {
+        const Neighbourhood one = {(float3)(lane(nb.sep_x, l), lane(nb.sep_y, l), lane(nb.sep_z, l)),
+                                   (float3)(lane(nb.ali_x, l), lane(nb.ali_y, l), lane(nb.ali_z, l)),
+                                   (float3)(lane(nb.coh_x, l), lane(nb.coh_y, l), lane(nb.coh_z, l)),
+                                   count_lane(nb.sep_count, l), count_lane(nb.ali_count, l),
+                                   count_lane(nb.coh_count, l)};
+        const float3 p_position = (float3)(own[0][l], own[1][l], own[2][l]);
+        const float3 p_velocity = (float3)(own[3][l], own[4][l], own[5][l]);
+        boid_force[first + l] = steering_force(&one, &rules, p_position, p_velocity);
+    }
 }
 
 // Cell size >= every radius, so the 3x3x3 cells around a boid hold every neighbour that counts. Neighbours are

@@ -126,6 +126,37 @@ def test_force_cs_with_smaller_blocks_matches_reference(runtime, block, seed):
     assert np.allclose(state["force"][usable], expected[usable], rtol=1e-4, atol=1e-5)
 
 
+# both tiled kernels on every device: the book's __local tiles and the CPU's vector lanes (n = 17: one lane group
+# of 16 plus one boid; 1000: 63 groups, the last one partial)
+@pytest.mark.parametrize("kernel", ["ForceCS", "ForceCS_cpu"])
+@pytest.mark.parametrize("n", [17, 1000])
+@pytest.mark.parametrize("start", ["book", "spread"])
+def test_each_tiled_kernel_matches_reference(runtime, kernel, n, start, seed):
+    sim = make(runtime, n, seed)
+    sim.tiled_kernel = kernel
+    if start == "spread":
+        sim.set_boids(*spread_state(n, seed))
+    sim.force_cs()
+    state = sim.state()
+    expected = force_reference(state["position"], state["velocity"], sim.params)
+    usable = ~ambiguous_boids(state["position"], sim.params)
+    actual, wanted = state["force"][usable], expected[usable]
+    assert np.allclose(actual, wanted, rtol=1e-4, atol=1e-5), first_mismatch(actual, wanted, 1e-4, 1e-5)
+    naive = make(runtime, n, seed, variant="naive")
+    naive.set_boids(state["position"], state["velocity"])
+    naive.force_cs()
+    # neighbours in index order in all three kernels: equal up to compiler contraction
+    np.testing.assert_allclose(state["force"], naive.state()["force"], rtol=1e-6, atol=1e-6)
+
+
+def test_tiled_kernel_is_chosen_by_device_type(runtime):
+    sim = make(runtime, 64)
+    expected = "ForceCS" if runtime.is_gpu else "ForceCS_cpu"  # the fixture's devices: PoCL or a GPU
+    assert sim.stats()["ForceCS kernel"] == expected
+    sim.update(variant="naive")
+    assert sim.stats()["ForceCS kernel"] == "ForceCS_naive"
+
+
 @pytest.mark.parametrize("n", [257, 1000])
 def test_tiled_and_naive_agree(runtime, n, seed):
     tiled = make(runtime, n, seed, variant="tiled")
@@ -382,6 +413,12 @@ def test_kernels_on_oclgrind(oclgrind, seed):
     naive.set_boids(*spread_state(300, seed, half_size=1.5))
     naive.step()
     np.testing.assert_allclose(sim.state()["position"], naive.state()["position"], rtol=1e-6, atol=1e-6)
+    assert sim.force_kernel() == "ForceCS"  # Oclgrind checks the book's barriers by default
+    lanes = Simulation(oclgrind, Params(max_object_num=300), seed)
+    lanes.tiled_kernel = "ForceCS_cpu"  # 19 work-items of 16 lanes, the last one with 12 boids
+    lanes.set_boids(*spread_state(300, seed, half_size=1.5))
+    lanes.step()
+    np.testing.assert_allclose(lanes.state()["position"], naive.state()["position"], rtol=1e-6, atol=1e-6)
     grid = Simulation(oclgrind, Params(max_object_num=300, variant="grid"), seed)
     grid.set_boids(*spread_state(300, seed, half_size=1.5))
     grid.step()  # GridHash, BitonicSortStep, GridFindCellRanges, ForceCS_grid

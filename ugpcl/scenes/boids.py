@@ -4,6 +4,8 @@ Kernel order per step: ``ForceCS`` (steering forces against all N boids through 
 ``IntegrateCS`` (wall avoidance, speed limit, explicit Euler). ``variant=naive`` swaps ForceCS for
 ``ForceCS_naive``, the same sums without local memory; ``variant=grid`` for ``ForceCS_grid``, which visits only
 the boids in the 27 uniform-grid cells around each boid (the chapter's summary, vol.1 ch.3 section 3.5, suggests it).
+On a CPU device (PoCL) ``variant=tiled`` runs ``ForceCS_cpu`` instead of the book's tiles: 16 boids per work-item
+in vector lanes, no local memory, no barriers (``stats()["ForceCS kernel"]`` and the bench say which ran).
 
 Differences from the book: N need not be a multiple of the block size (the book dispatches floor(N/256) groups
 and reads past the buffer otherwise); a rule whose mean direction is the zero vector steers by 0 instead of
@@ -15,6 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
 from ..benchmark import seconds_per_step
@@ -28,6 +31,8 @@ BOID_DTYPE = np.dtype([("velocity", "<f4", 4), ("position", "<f4", 4)])
 """Mirror of ``Boid`` in clkernels/include/boid.h (32 bytes)."""
 MAX_GRID_CELLS = 1 << 21
 """Cap on the cells of variant=grid (the book's box with radius 2 needs 16^3 = 4096)."""
+CPU_LANES = 16
+"""Boids per work-item of ForceCS_cpu (CPU_LANES in clkernels/boids.cl)."""
 
 INIT_POSITION_RADIUS = 1.0
 """Boids start uniformly inside a ball of this radius (book: Random.insideUnitSphere * 1.0)."""
@@ -89,6 +94,10 @@ class Simulation(BaseSimulation):
         self.block_size, self.program = rt.fitted_program(
             "boids", ("ForceCS",), p.simulation_block_size, define="SIMULATION_BLOCK_SIZE"
         )
+        # what variant=tiled runs (tests may set the other): the book's barrier-synchronised tiles cost PoCL a
+        # work-group loop per tile, so CPU devices get the vector-lane kernel; Oclgrind keeps the tiles to check them
+        cpu = bool(rt.device.type & cl.device_type.CPU) and not rt.is_oclgrind
+        self.tiled_kernel = "ForceCS_cpu" if cpu else "ForceCS"
         self.boid_data = rt.to_device(initial_boids(self.n, self.seed))
         self.boid_force = rt.zeros(self.n, cltypes.float4)
         self.grid = None  # built on first use by variant=grid
@@ -114,21 +123,28 @@ class Simulation(BaseSimulation):
     def force_cs(self) -> None:
         """ForceCS (ForceCS_naive, ForceCS_grid): steering force of every boid against its neighbours."""
         variant = self.params.variant
-        name = {"tiled": "ForceCS", "naive": "ForceCS_naive", "grid": "ForceCS_grid"}[variant]
+        name = self.force_kernel()
         grid_args = ()
         if variant == "grid":
             grid = self._neighbour_grid()
             grid.build(self.boid_data, self.n, stride=BOID_DTYPE.itemsize // 4, offset=4)  # floats 4..6: position
             grid_args = (*grid.geometry_args(), *grid.search_args())
+        if name == "ForceCS_cpu":
+            launch = ((-(-self.n // CPU_LANES),), None)  # one work-item per CPU_LANES boids
+        else:
+            launch = ((round_up(self.n, self.block_size),), (self.block_size,) if name == "ForceCS" else None)
         self.program.kernel(name)(
-            (round_up(self.n, self.block_size),),
-            (self.block_size,) if variant == "tiled" else None,
+            *launch,
             self.boid_data.data,
             self.boid_force.data,
             np.int32(self.n),
             *self._rules(),
             *grid_args,
         )
+
+    def force_kernel(self) -> str:
+        """The ForceCS kernel that the current variant runs on this device."""
+        return {"tiled": self.tiled_kernel, "naive": "ForceCS_naive", "grid": "ForceCS_grid"}[self.params.variant]
 
     def _neighbour_grid(self) -> UniformGrid:
         """A grid over the wall box with cells as large as the largest radius (coarser if that would need more
@@ -199,6 +215,7 @@ class Simulation(BaseSimulation):
             **super().stats(),
             "boids": self.n,
             "variant": self.params.variant,
+            "ForceCS kernel": self.force_kernel(),
             "block size": self.block_size,
             "mean speed": float(speed.mean()),
         }
@@ -224,10 +241,15 @@ FLOCK_WARMUP_STEPS = 300
 """Steps (dt 1/60) from the book's start before the "flocking" bench rows: the boids have spread through the box."""
 
 
+FLOPS_PER_PAIR = 21
+"""meet() in clkernels/boids.cl for a pair inside every radius: 3 subtractions (diff), 5 for dist², 1 reciprocal,
+3 multiplications and 9 additions into the three sums (compares and counts not counted)."""
+
+
 def bench(runtime, sizes=None) -> list[dict]:
     """ms per step and pair interactions/s (N^2 per step; for the grid too, as the all-pairs work it replaces) for
     each N and ForceCS variant, at the book's start (every boid within every radius of every other: the worst
-    case) and once the flock has spread out."""
+    case) and once the flock has spread out; at the start, FLOPS_PER_PAIR x N^2 per step as flop/s."""
     sizes = sizes or ([16384, 65536] if runtime.is_gpu else [1024, 4096])
     rows = []
     for n in sizes:
@@ -246,9 +268,12 @@ def bench(runtime, sizes=None) -> list[dict]:
                         "N": n,
                         "state": phase,
                         "variant": variant,
+                        "kernel": sim.force_kernel(),
                         "ms/step": seconds * 1e3,
                         "interactions/s": n * n / seconds,
                         "steps/s": 1.0 / seconds,
+                        # at the start every pair is inside every radius: meet() does all its work
+                        **({"pair flop/s": FLOPS_PER_PAIR * n * n / seconds} if phase == "start" else {}),
                     }
                 )
     return rows
@@ -260,5 +285,6 @@ SCENES = [
         Simulation,
         "GPU boids: flocking with local-memory tiles (vol.1 ch.3)",
         preview={"steps": 600, "max_object_num": 4096},
+        interactive={"max_object_num": 2048},
     )
 ]
