@@ -12,12 +12,14 @@
 //   2b. ScanBlocks, AddBlockOffsets  cell_ntri -> cell_off[N^3]: exclusive prefix sum (per work-group in __local
 //                               memory, block sums scanned recursively by the host)
 //   2c. GenerateTriangles    field, cell_ntri, cell_off -> triangles[cell_off[cell] ...]: output in cell order
-// Build defines: SCAN_BLOCK_SIZE = work-group size of ScanBlocks (a power of two; 256).
-// Arguments shared by the field and normal code: N (book: _SegmentNum), shape (SHAPE_*), radius.xyz = the three
+// Build defines: SCAN_BLOCK_SIZE = work-group size of ScanBlocks (a power of two; 256); SHAPE = SHAPE_SPHERES (0) or
+//   SHAPE_KAIWARE (1): the field (a define: a program holds one field's code and tests no shape per sample).
+// Arguments shared by the field and normal code: N (book: _SegmentNum), radius.xyz = the three
 // sphere radii at time t and twist = the kaiware's twist at t, both computed on the host from t (one sin per frame
 // instead of one per sample; the book evaluates them inside Sample).
 // Differences from the book: vertices on an edge are interpolated from its lower corner (the same float result in
-// both cells that share it, so the mesh welds exactly); a zero gradient falls back to the face normal.
+// both cells that share it, so the mesh welds exactly); a zero gradient falls back to the face normal; the three
+// smooth_max calls of the spheres are one log-sum-exp (equal to float rounding; see sample_spheres).
 #include "marching_cubes.h"         // McTriangle {float position[9], normal[9]; uint cell}: 76 B
 #include "marching_cubes_tables.h"  // vertexOffset, edgeConnection, cubeEdgeFlags, triangleConnectionTable
 #include "pool.h"                   // pool_append
@@ -25,19 +27,19 @@
 #ifndef SCAN_BLOCK_SIZE
 #error "build with -D SCAN_BLOCK_SIZE=<work-group size of ScanBlocks, a power of two>"
 #endif
+#ifndef SHAPE
+#error "build with -D SHAPE=0 (spheres) or 1 (kaiware)"
+#endif
 
 #define SHAPE_SPHERES 0            // three metaball spheres (radii from the host: repository or book listing)
 #define SHAPE_KAIWARE 1            // the "kaiware daikon" of Fig 7.6 (the repository's disabled #else branch)
-#define SMOOTH_MAX_K 14.0f         // book: smoothMax(result, sp, 14)
+#define SMOOTH_MAX_K 14.0f         // book: smoothMax(result, sp, 14), smoothMax(d1, d2, k) = log(e^(k d1) + e^(k d2)) / k
 #define KAIWARE_SCALE 0.5f         // repository: the SDF evaluated at p / 0.5, scaled by 0.5
 #define NORMALS_ANALYTIC 0         // book: getNormal resamples the analytic field around the vertex
 #define NORMALS_GRID 1             // central differences of the field buffer, trilinear between grid points
 #define NORMAL_STEP 1.0f           // book: getNormal samples +-1 cell
 
 // {{{ the field (book: Sample and the distance functions of Primitives.cginc / Utils.cginc)
-
-// Book: smoothMax(d1, d2, k) = log(exp(k d1) + exp(k d2)) / k; exp(14 * 0.6) stays far from float overflow.
-inline float smooth_max(float d1, float d2, float k) { return log(exp(k * d1) + exp(k * d2)) / k; }
 
 inline float sd_sphere(float3 pos, float radius) { return length(pos) - radius; }
 
@@ -79,28 +81,42 @@ inline float kaiware_sdf(float3 q) {
     return fmax(fmin(fmin(d1, d2), d3), -d4);
 }
 
-// Book: Sample(x, y, z) in grid coordinates; positive inside, 0 on and outside the two border layers.
-inline float Sample(float3 g, int N, int shape, float4 radius, float twist) {
-    if (any(g <= 1.0f) || any(g >= (float)(N - 1))) return 0.0f;  // closes the surface at the box border
-    float3 pos = g / (float)N;
-    if (shape == SHAPE_KAIWARE) {
-        float3 q = twist_y(pos - 0.5f, twist) / KAIWARE_SCALE;
-        return 0.5f - KAIWARE_SCALE * kaiware_sdf(q);
-    }
-    float result = 0.0f;
-    const float r[3] = {radius.x, radius.y, radius.z};
-    for (int i = 0; i < 3; i++) {  // three spheres stacked on the Y axis at y = 0.25, 0.5, 0.75
-        float sp = -sd_sphere(pos - (float3)(0.5f, 0.25f + 0.25f * i, 0.5f), r[i]) + 0.5f;
-        result = smooth_max(result, sp, SMOOTH_MAX_K);
-    }
-    return result;
+// The three metaballs at pos (spheres stacked on the Y axis at y = 0.25, 0.5, 0.75, radii r.xyz). The book folds
+// smooth_max(smooth_max(smooth_max(0, s0), s1), s2) with s_i = 0.5 - (|pos - c_i| - r_i), which is
+// log(exp(0) + exp(k s0) + exp(k s1) + exp(k s2)) / k: one log instead of three (PoCL 3.1's log is a scalar libm
+// call, 18 ns on this CPU against 2-11 ns for exp; equal to float rounding, 8e-8 from float64).
+inline float sphere_term(float x, float y, float z, float centre_y, float r) {
+    const float dy = y - centre_y, dx = x - 0.5f, dz = z - 0.5f;
+    return exp(SMOOTH_MAX_K * (0.5f - (sqrt(dx * dx + dy * dy + dz * dz) - r)));
 }
+
+inline float sample_spheres(float x, float y, float z, float4 r) {
+    const float sum = sphere_term(x, y, z, 0.25f, r.x) + sphere_term(x, y, z, 0.5f, r.y) +
+                      sphere_term(x, y, z, 0.75f, r.z);
+    return log(1.0f + sum) / SMOOTH_MAX_K;
+}
+
+// Book: Sample(x, y, z) in grid coordinates; positive inside, 0 on and outside the two border layers (a select, not
+// an early return: the lanes of a vector stay together).
+inline float Sample(float gx, float gy, float gz, int N, float4 radius, float twist) {
+    const float n = (float)N;
+#if SHAPE == SHAPE_KAIWARE
+    const float3 q = twist_y((float3)(gx / n, gy / n, gz / n) - 0.5f, twist) / KAIWARE_SCALE;
+    const float result = 0.5f - KAIWARE_SCALE * kaiware_sdf(q);
+#else
+    const float result = sample_spheres(gx / n, gy / n, gz / n, radius);
+#endif
+    const bool border = gx <= 1.0f || gy <= 1.0f || gz <= 1.0f || gx >= n - 1.0f || gy >= n - 1.0f || gz >= n - 1.0f;
+    return border ? 0.0f : result;
+}
+
+inline float sample_at(float3 g, int N, float4 radius, float twist) { return Sample(g.x, g.y, g.z, N, radius, twist); }
 
 // }}}
 
 // {{{ one cell (the body of the book's geom_light)
 
-#define FIELD_ARGS int N, int shape, float4 radius, float twist
+#define FIELD_ARGS int N, float4 radius, float twist
 #define FIELD(x, y, z) field[(x) + (N + 1) * ((y) + (N + 1) * (z))]
 
 // field between grid points: trilinear, clamped to the grid (used for NORMALS_GRID)
@@ -119,18 +135,18 @@ inline float field_trilinear(const __global float* field, int N, float3 g) {
 }
 
 inline float sample_for_normal(const __global float* field, float3 g, int normals, FIELD_ARGS) {
-    return normals == NORMALS_GRID ? field_trilinear(field, N, g) : Sample(g, N, shape, radius, twist);
+    return normals == NORMALS_GRID ? field_trilinear(field, N, g) : sample_at(g, N, radius, twist);
 }
 
 // Book: getNormal = S(p - h) - S(p + h) per axis: minus the gradient, i.e. out of the high-density region.
 inline float3 get_normal(const __global float* field, float3 g, int normals, FIELD_ARGS) {
     const float h = NORMAL_STEP;
-    float3 n = (float3)(sample_for_normal(field, g - (float3)(h, 0.0f, 0.0f), normals, N, shape, radius, twist) -
-                            sample_for_normal(field, g + (float3)(h, 0.0f, 0.0f), normals, N, shape, radius, twist),
-                        sample_for_normal(field, g - (float3)(0.0f, h, 0.0f), normals, N, shape, radius, twist) -
-                            sample_for_normal(field, g + (float3)(0.0f, h, 0.0f), normals, N, shape, radius, twist),
-                        sample_for_normal(field, g - (float3)(0.0f, 0.0f, h), normals, N, shape, radius, twist) -
-                            sample_for_normal(field, g + (float3)(0.0f, 0.0f, h), normals, N, shape, radius, twist));
+    float3 n = (float3)(sample_for_normal(field, g - (float3)(h, 0.0f, 0.0f), normals, N, radius, twist) -
+                            sample_for_normal(field, g + (float3)(h, 0.0f, 0.0f), normals, N, radius, twist),
+                        sample_for_normal(field, g - (float3)(0.0f, h, 0.0f), normals, N, radius, twist) -
+                            sample_for_normal(field, g + (float3)(0.0f, h, 0.0f), normals, N, radius, twist),
+                        sample_for_normal(field, g - (float3)(0.0f, 0.0f, h), normals, N, radius, twist) -
+                            sample_for_normal(field, g + (float3)(0.0f, 0.0f, h), normals, N, radius, twist));
     float len = length(n);
     return len > 0.0f ? n / len : (float3)(0.0f);  // 0: the caller substitutes the face normal
 }
@@ -171,7 +187,7 @@ inline void cell_edges(const __global float* field, int3 c, int flag_index, cons
         float3 step = (float3)(vertexOffset[b][0] - vertexOffset[a][0], vertexOffset[b][1] - vertexOffset[a][1],
                                vertexOffset[b][2] - vertexOffset[a][2]);
         vertex[e] = lower + t * step;
-        normal[e] = get_normal(field, vertex[e], normals, N, shape, radius, twist);
+        normal[e] = get_normal(field, vertex[e], normals, N, radius, twist);
     }
 }
 
@@ -199,12 +215,11 @@ inline void store_triangle(__global McTriangle* dst, int flag_index, int i, cons
 
 // {{{ 1. the field
 
+// 3-D NDRange (x rounded up to the work-group width, y, z): no integer division per point.
 __kernel void SampleField(__global float* field, FIELD_ARGS) {
-    const int points = (N + 1) * (N + 1) * (N + 1);
-    const int id = get_global_id(0);
-    if (id >= points) return;
-    const int x = id % (N + 1), y = (id / (N + 1)) % (N + 1), z = id / ((N + 1) * (N + 1));
-    field[id] = Sample((float3)(x, y, z), N, shape, radius, twist);
+    const int x = get_global_id(0), y = get_global_id(1), z = get_global_id(2);
+    if (x > N || y > N || z > N) return;  // padding of the rounded-up rows
+    field[x + (N + 1) * (y + (N + 1) * z)] = Sample((float)x, (float)y, (float)z, N, radius, twist);
 }
 
 // }}}
@@ -221,7 +236,7 @@ __kernel void PolygonizeAppend(const __global float* field, float threshold, int
     const int count = case_triangles(flag_index);
     if (count == 0) return;  // book: edgeFlags == 0: entirely inside or outside
     float3 vertex[12], normal[12];
-    cell_edges(field, c, flag_index, value, threshold, normals, N, shape, radius, twist, vertex, normal);
+    cell_edges(field, c, flag_index, value, threshold, normals, N, radius, twist, vertex, normal);
     for (int i = 0; i < count; i++) {
         // pool_append: atomic_inc returns the old count = this triangle's slot; at capacity it undoes the
         // increment and counts the refusal, so the host sees count == capacity and refused = what did not fit
@@ -279,7 +294,7 @@ __kernel void GenerateTriangles(const __global float* field, float threshold, in
     float value[8];
     const int flag_index = cell_case(field, N, c, threshold, value);
     float3 vertex[12], normal[12];
-    cell_edges(field, c, flag_index, value, threshold, normals, N, shape, radius, twist, vertex, normal);
+    cell_edges(field, c, flag_index, value, threshold, normals, N, radius, twist, vertex, normal);
     for (int i = 0; i < count; i++) {
         const uint slot = cell_off[cell] + i;  // the host sized the pool from the scan's total: a guard, not a clamp
         if (slot < (uint)capacity) store_triangle(&triangles[slot], flag_index, i, vertex, normal, N, (uint)cell);

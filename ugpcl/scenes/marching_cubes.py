@@ -46,6 +46,8 @@ NORMALS = {"analytic": 0, "grid": 1}
 """Normal mode -> NORMALS_* of marching_cubes.cl."""
 SCAN_BLOCK_SIZE = 256
 """Work-group size of ScanBlocks (values scanned per group in __local memory)."""
+FIELD_GROUP = 64
+"""Work-group width of SampleField (x rows rounded up to it): 4 AVX-512 vectors for PoCL, 2 warps on a GPU."""
 PULSE_RATE = 8.0
 """Angular frequency of the spheres' pulsing, rad/s (book: sin(_Time.y * 8.0 + i * 23.365)): period 2 pi / 8 s."""
 PULSE_PHASE = 23.365
@@ -122,7 +124,6 @@ class Simulation(BaseSimulation):
         p, rt = self.params, self.runtime
         self.n = p.segment_num
         self.cells = self.n**3
-        self.program = rt.program("marching_cubes", SCAN_BLOCK_SIZE=SCAN_BLOCK_SIZE)
         self.field = rt.zeros((self.n + 1) ** 3, np.float32)
         self.pool = Pool(rt, p.triangle_capacity or CAPACITY_PER_FACE_CELL * self.n**2, TRIANGLE_DTYPE, "triangles")
         self.cell_ntri = None  # the two-pass buffers, made on first use
@@ -134,15 +135,15 @@ class Simulation(BaseSimulation):
         self.frame_counts: list[int] = []
         self.remesh()
 
+    @property
+    def program(self):
+        """marching_cubes.cl built for the current shape (a live field: the runtime caches one program per shape)."""
+        return self.runtime.program("marching_cubes", SCAN_BLOCK_SIZE=SCAN_BLOCK_SIZE, SHAPE=SHAPES[self.params.shape])
+
     def _field_args(self) -> tuple:
         p = self.params
         radii, twist = field_constants(p.shape, self.field_time)
-        return (
-            np.int32(self.n),
-            np.int32(SHAPES[p.shape]),
-            cltypes.make_float4(*radii, 0.0),
-            np.float32(twist),
-        )
+        return (np.int32(self.n), cltypes.make_float4(*radii, 0.0), np.float32(twist))
 
     def _cell_args(self) -> tuple:
         """The leading arguments of both triangle writers (PolygonizeAppend, GenerateTriangles)."""
@@ -153,8 +154,9 @@ class Simulation(BaseSimulation):
 
     def sample_field(self) -> None:
         """SampleField: the book's Sample at all (N+1)^3 grid points at the current field time."""
-        points = (self.n + 1) ** 3
-        self.program.kernel("SampleField")((points,), None, self.field.data, *self._field_args())
+        side = self.n + 1
+        size = (round_up(side, FIELD_GROUP), side, side)
+        self.program.kernel("SampleField")(size, (FIELD_GROUP, 1, 1), self.field.data, *self._field_args())
 
     def polygonize_append(self, pool: Pool | None = None, capacity: int | None = None) -> None:
         """PolygonizeAppend: every cell appends its triangles to ``pool`` (default: the scene's, emptied first).
