@@ -1,4 +1,5 @@
-"""Uniform grid (clkernels/grid.cl, ugpcl/grid.py): sorted keys, cell ranges, exact neighbour sets."""
+"""Uniform grid (clkernels/grid.cl, ugpcl/grid.py): the counting sort's keys and cell ranges against numpy, the same
+arrays on every build, exact neighbour sets and the neighbour loop's visiting order."""
 
 from __future__ import annotations
 
@@ -45,6 +46,97 @@ def test_keys_are_sorted_and_ranges_cover_every_item(runtime, n, seed):
     assert (end - start).sum() == n
     for c in np.unique(cells):
         assert (cells[start[c] : end[c]] == c).all()
+
+
+def reference_sort(points: np.ndarray, grid: UniformGrid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """numpy's sorted keys, cell_start and cell_end for items at ``points`` (n, 3): cells clamped into the grid."""
+    dims = np.array(grid.dims)
+    coord = np.floor((points - np.array(grid.origin)) / grid.cell_size).astype(np.int64)
+    coord = np.clip(coord, 0, dims - 1)
+    cells = (coord[:, 2] * dims[1] + coord[:, 1]) * dims[0] + coord[:, 0]
+    keys = np.sort((cells.astype(np.uint64) << np.uint64(32)) | np.arange(len(points), dtype=np.uint64))
+    end = np.cumsum(np.bincount(cells, minlength=grid.num_cells))
+    return keys, end - np.bincount(cells, minlength=grid.num_cells), end
+
+
+def cell_centred_points(rng, n: int, lower, cell_size: float, cells_per_axis, outside: int = 0) -> np.ndarray:
+    """n points within 0.3 cells of random cell centres (no float rounding at a cell border can move one), the first
+    ``outside`` of them pushed up to 3 cells beyond the grid on every axis."""
+    lower = np.array(lower, float)
+    picks = rng.integers(0, cells_per_axis, (n, len(lower)))
+    shift = np.zeros((n, len(lower)), np.int64)
+    shift[:outside] = rng.choice([-3, -2, 2, 3], (outside, len(lower)))  # 2, 3 past the end or before the start
+    shift[:outside] += np.where(shift[:outside] > 0, np.array(cells_per_axis) - 1, 0)
+    picks[:outside] = shift[:outside]
+    return lower + (picks + 0.5 + rng.uniform(-0.3, 0.3, (n, len(lower)))) * cell_size
+
+
+def built(runtime, points: np.ndarray, grid: UniformGrid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    data = np.zeros((len(points), 4), np.float32)
+    data[:, : points.shape[1]] = points
+    grid.build(runtime.to_device(data), len(points), stride=4)
+    return grid.sorted_keys(), grid.cell_start.get(), grid.cell_end.get()
+
+
+@pytest.mark.parametrize(
+    "n, lower, cells, outside",
+    [
+        (3001, (-1, -1, -1), (8, 8, 8), 100),  # 3D, N not a multiple of the work-group size, some outside
+        (1000, (0, 0), (2100, 2100), 50),  # 2D, 4.4 M cells: three scan levels; almost every cell empty
+        (65, (0, 0, 0), (1, 1, 1), 0),  # all in one cell
+        (2000, (0, 0), (2, 2), 0),  # 500 per cell: long runs to order
+    ],
+)
+def test_counting_sort_equals_numpy(runtime, seed, n, lower, cells, outside):
+    rng = np.random.default_rng(seed)
+    points = cell_centred_points(rng, n, lower, 0.5, cells, outside)
+    upper = np.array(lower) + 0.5 * np.array(cells)
+    grid = UniformGrid.covering(runtime, n, lower, upper, 0.5)
+    assert grid.dims == (*cells, 1, 1)[:3]
+    keys, start, end = built(runtime, points, grid)
+    ref_keys, ref_start, ref_end = reference_sort(np.column_stack([points, np.zeros((n, 3 - len(lower)))]), grid)
+    np.testing.assert_array_equal(keys, ref_keys)
+    np.testing.assert_array_equal(start, ref_start)  # empty cells: start == end == the items of the cells before
+    np.testing.assert_array_equal(end, ref_end)
+
+
+def test_two_builds_give_the_same_arrays(runtime, seed):
+    """The scatter's atomic order varies; the arrays must not. Few cells, many items each: many ties in arrival."""
+    rng = np.random.default_rng(seed)
+    points = cell_centred_points(rng, 20000, (0, 0), 0.5, (3, 3))
+    grid = UniformGrid.covering(runtime, len(points), (0, 0), (1.5, 1.5), 0.5)
+    first = built(runtime, points, grid)
+    for _ in range(3):
+        for a, b in zip(first, built(runtime, points, grid), strict=True):
+            np.testing.assert_array_equal(a, b)
+
+
+def test_sort_orders_keys_written_in_any_order_and_puts_empty_keys_last(runtime, seed):
+    """``sort`` on keys a chapter's hash kernel wrote (space colonization: inactive nodes get GRID_EMPTY_KEY), here
+    shuffled, so the scatter's arrival order is not the item order and only the last pass can restore it: the live
+    keys in order, then the empty ones; no cell counts them."""
+    rng = np.random.default_rng(seed)
+    n, grid = 1500, UniformGrid(runtime, 1500, (0, 0, 0), 1.0, (7, 5, 3))
+    cells = rng.integers(0, grid.num_cells, n).astype(np.uint64)
+    keys = (cells << np.uint64(32)) | np.arange(n, dtype=np.uint64)
+    live = rng.uniform(size=n) < 0.3
+    keys[~live] = np.uint64(0xFFFFFFFFFFFFFFFF)
+    grid.hash_keys.set(keys[rng.permutation(n)])
+    grid.sort(n)
+    np.testing.assert_array_equal(grid.sorted_keys(), np.sort(keys))
+    end = np.cumsum(np.bincount(cells[live].astype(np.int64), minlength=grid.num_cells))
+    np.testing.assert_array_equal(grid.cell_end.get(), end)
+    np.testing.assert_array_equal(
+        grid.cell_start.get(), end - np.bincount(cells[live].astype(np.int64), minlength=grid.num_cells)
+    )
+
+
+def test_no_items_leave_every_cell_empty(runtime):
+    grid = UniformGrid(runtime, 8, (0, 0, 0), 1.0, (30, 30, 1))
+    grid.build(runtime.zeros(32, np.float32), 8, stride=4)
+    grid.build(runtime.zeros(32, np.float32), 0, stride=4)  # after a build with items: nothing left over
+    assert len(grid.sorted_keys()) == 0
+    assert not grid.cell_start.get().any() and not grid.cell_end.get().any()
 
 
 @pytest.mark.parametrize("dims3", [True, False])
@@ -154,3 +246,21 @@ def test_grid_kernels_on_oclgrind(oclgrind, seed):
     found, cells = list_neighbours(oclgrind, grid, items, n, 4, n + 1), item_cells(grid, n)
     for i in range(n):
         assert found[i][found[i] >= 0].tolist() == visiting_order_reference(cells, grid.dims, i), i
+
+
+@pytest.mark.oclgrind
+def test_counting_sort_on_oclgrind(oclgrind, seed):
+    """Two scan levels (2500 cells), long runs, items outside, and the empty keys of a chapter's own hash."""
+    rng = np.random.default_rng(seed)
+    points = cell_centred_points(rng, 300, (0, 0), 0.5, (50, 50), outside=20)
+    points[:100] = points[0]  # 100 items in one cell
+    grid = UniformGrid.covering(oclgrind, 300, (0, 0), (25, 25), 0.5)
+    keys, start, end = built(oclgrind, points, grid)
+    ref_keys, ref_start, ref_end = reference_sort(np.column_stack([points, np.zeros(300)]), grid)
+    np.testing.assert_array_equal(keys, ref_keys)
+    np.testing.assert_array_equal(start, ref_start)
+    np.testing.assert_array_equal(end, ref_end)
+    keys[::3] = np.uint64(0xFFFFFFFFFFFFFFFF)
+    grid.hash_keys.set(keys[rng.permutation(300)])
+    grid.sort(300)
+    np.testing.assert_array_equal(grid.sorted_keys(), np.sort(keys))

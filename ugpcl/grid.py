@@ -1,27 +1,39 @@
 """Uniform-grid neighbour search shared by the chapters (kernels: clkernels/grid.cl, helpers: grid.h).
 
-``build()`` hashes each item's position to a cell, sorts (cell, index) keys with a bitonic network and records
-each cell's range of sorted keys. A chapter's neighbour kernel then visits the 3x3x3 (2D: 3x3) cells around a
-position instead of all items, through grid.h's one neighbour loop (``grid_neighbours`` / ``grid_next_neighbour``):
+``build()`` hashes each item's position to a cell, sorts the (cell, index) keys by a counting sort (count per cell,
+prefix sum, scatter, then each cell's run in item order, so the order is the same on every run) and records each
+cell's range of sorted keys. A chapter's neighbour kernel then visits the 3x3x3 (2D: 3x3) cells around a
+position instead of all items, through grid.h's one neighbour loop (``GRID_FOR_EACH_NEIGHBOUR_KEY``):
 exact whenever ``cell_size`` >= the search radius.
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 import pyopencl as cl
 import pyopencl.array as cla
 import pyopencl.cltypes as cltypes
 
-from .runtime import Runtime, round_up
+from .runtime import Runtime
 
 LOCAL_SIZE = 64
+SCAN_GROUP, SCAN_SPAN = 256, 8
+"""GridScanBlocks: work-items per group and consecutive cells per work-item (GRID_SCAN_GROUP, GRID_SCAN_SPAN)."""
+SCAN_BLOCK = SCAN_GROUP * SCAN_SPAN
+"""Cells one work-group of GridScanBlocks scans: one launch scans a grid of up to 2048 cells."""
 
 
-def next_power_of_two(n: int) -> int:
-    return 1 << max(0, (n - 1).bit_length())
+class ScanLevel(NamedTuple):
+    """One GridScanBlocks launch: ``count`` counts (zeroed) -> exclusive and inclusive sums, per-block totals."""
+
+    counts: cla.Array
+    exclusive: cla.Array
+    inclusive: cla.Array
+    block_sums: cla.Array
+    count: int
 
 
 class UniformGrid:
@@ -42,9 +54,14 @@ class UniformGrid:
         self.origin = tuple(float(v) for v in (*origin, 0.0, 0.0)[:3])
         self.cell_size = float(cell_size)
         self.program = runtime.program("grid")
-        self.keys = runtime.empty(next_power_of_two(self.capacity), np.uint64)
+        self.hash_keys = runtime.empty(self.capacity, np.uint64)  # what the hash kernels write: item i's key at i
+        self.cell_count = runtime.zeros(self.num_cells, np.int32)  # zero between builds: the scan clears it
+        self.tickets = runtime.empty(self.capacity, np.int32)  # each key's arrival number in its cell
+        self.scattered = runtime.empty(self.capacity, np.uint64)  # grouped by cell, each cell in arrival order
+        self.keys = runtime.empty(self.capacity, np.uint64)  # sorted: what the neighbour loops read
         self.cell_start = runtime.zeros(self.num_cells, np.int32)
         self.cell_end = runtime.zeros(self.num_cells, np.int32)
+        self.scan_levels = self._scan_levels()
         self.n = 0
 
     @classmethod
@@ -53,6 +70,25 @@ class UniformGrid:
         lower, upper = np.asarray(lower, float), np.asarray(upper, float)
         dims = [max(1, math.ceil((u - lo) / cell_size)) for lo, u in zip(lower, upper, strict=True)]
         return cls(runtime, capacity, lower, cell_size, (*dims, 1, 1)[:3])
+
+    def _scan_levels(self) -> list[ScanLevel]:
+        """The levels of the prefix sum over the cells: the first scans cell_count into cell_start (exclusive) and
+        cell_end (inclusive), each next one the block sums of the one before, until one block holds them all."""
+        rt = self.runtime
+        levels, counts, exclusive, inclusive, count = (
+            [],
+            self.cell_count,
+            self.cell_start,
+            self.cell_end,
+            self.num_cells,
+        )
+        while True:
+            blocks = -(-count // SCAN_BLOCK)
+            levels.append(ScanLevel(counts, exclusive, inclusive, rt.empty(blocks, np.int32), count))
+            if blocks == 1:
+                return levels
+            counts, count = levels[-1].block_sums, blocks
+            exclusive, inclusive = rt.empty(blocks, np.int32), rt.empty(blocks, np.int32)
 
     # {{{ kernel arguments a chapter's neighbour kernel takes, in grid.h's order
 
@@ -68,52 +104,49 @@ class UniformGrid:
 
     def build(self, items, n: int, stride: int, offset: int = 0) -> None:
         """Sort items 0..n-1 of ``items`` (a float buffer: item i's position starts at float i*stride+offset)."""
-        if not 0 <= n <= self.capacity:
-            raise ValueError(f"grid: n must be in [0, {self.capacity}], got {n}")
+        self._check_n(n)
         buffer = items.data if isinstance(items, cla.Array) else items
-        padded = next_power_of_two(max(n, 1))
-        self.program.kernel("GridHash")(
-            (round_up(padded, LOCAL_SIZE),),
-            None,
+        geometry = self.geometry_args()
+        args = (
             buffer,
             np.int32(stride),
             np.int32(offset),
             np.int32(n),
-            np.int32(padded),
-            *self.geometry_args(),
-            self.keys.data,
+            *geometry,
+            self.hash_keys,
+            self.cell_count,
+            self.tickets,
         )
-        self.sort(n)
+        self.program.kernel("GridHash").over(n, LOCAL_SIZE, *args)
+        self._scan_and_scatter(n)
 
     def sort(self, n: int) -> None:
-        """Sort the keys of items 0..n-1 (from GridHash or a chapter's own hash kernel, which fills the slots up to the
-        next power of two with GRID_EMPTY_KEY: they sort last and own no cell) and record each cell's key range."""
-        padded = next_power_of_two(max(n, 1))
-        sort_step = self.program.kernel("BitonicSortStep")
-        k = 2
-        while k <= padded:
-            j = k // 2
-            while j >= 1:
-                sort_step((padded // 2,), None, self.keys.data, np.int32(j), np.int32(k))
-                j //= 2
-            k *= 2
-        self.program.kernel("GridClearCells")(
-            (round_up(self.num_cells, LOCAL_SIZE),),
-            None,
-            self.cell_start.data,
-            self.cell_end.data,
-            np.int32(self.num_cells),
+        """Sort the n keys a chapter's own hash kernel wrote to ``hash_keys`` (item i's key at i; GRID_EMPTY_KEY for
+        an item left out: it owns no cell and goes after every cell's items) and record each cell's range."""
+        self._check_n(n)
+        self.program.kernel("GridCountCells").over(
+            n, LOCAL_SIZE, self.hash_keys, np.int32(n), self.cell_count, self.tickets
         )
+        self._scan_and_scatter(n)
+
+    def _scan_and_scatter(self, n: int) -> None:
+        """From the counts on: prefix sums into the cell ranges, the keys grouped by cell, each cell in item order."""
+        kernel, levels = self.program.kernel, self.scan_levels
+        for level in levels:  # up: each level scans the block sums of the one below
+            groups = -(-level.count // SCAN_BLOCK)
+            kernel("GridScanBlocks")(groups * SCAN_GROUP, SCAN_GROUP, *level[:4], np.int32(level.count))
+        for level, above in reversed(list(zip(levels, levels[1:], strict=False))):  # down: add the earlier blocks
+            args = (level.exclusive, level.inclusive, above.exclusive, np.int32(level.count))
+            kernel("GridAddBlockOffsets").over(level.count, LOCAL_SIZE, *args)
+        args = (self.hash_keys, self.tickets, np.int32(n), self.cell_start, self.scattered)
+        kernel("GridScatter").over(n, LOCAL_SIZE, *args)
+        args = (self.scattered, np.int32(n), self.cell_start, self.cell_end, np.int32(self.num_cells), self.keys)
+        kernel("GridSortCells").over(n, LOCAL_SIZE, *args)
         self.n = n
-        if n:
-            self.program.kernel("GridFindCellRanges")(
-                (round_up(n, LOCAL_SIZE),),
-                None,
-                self.keys.data,
-                np.int32(n),
-                self.cell_start.data,
-                self.cell_end.data,
-            )
+
+    def _check_n(self, n: int) -> None:
+        if not 0 <= n <= self.capacity:
+            raise ValueError(f"grid: n must be in [0, {self.capacity}], got {n}")
 
     def sorted_keys(self) -> np.ndarray:
         """The n sorted keys (host copy, for tests and statistics)."""

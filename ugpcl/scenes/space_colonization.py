@@ -43,8 +43,7 @@ from ..geometry import space_colonization_ref as ref
 from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
 from ..grid import LOCAL_SIZE as GRID_LOCAL_SIZE
-from ..grid import UniformGrid, next_power_of_two
-from ..runtime import round_up
+from ..grid import UniformGrid
 from ..scene import Params as BaseParams
 from ..scene import Scene, check_dt, param
 from ..scene import Simulation as BaseSimulation
@@ -438,18 +437,17 @@ def make_cloud(p: Params, rng: np.random.Generator) -> np.ndarray:
 
 class NodeGrid(UniformGrid):
     """The uniform grid of the active nodes: NodeGridHash keys only the active slots (the rest get empty keys, which
-    sort last and own no cell), then ``UniformGrid.sort`` as for any grid."""
+    own no cell and sort last), then ``UniformGrid.sort`` as for any grid."""
 
     def build_active(self, program, nodes, slots: int) -> None:
-        padded = next_power_of_two(max(slots, 1))
-        program.kernel("NodeGridHash")(
-            (round_up(padded, GRID_LOCAL_SIZE),),
-            None,
+        program.kernel("NodeGridHash").over(
+            slots,
+            GRID_LOCAL_SIZE,
             nodes.data,
             np.int32(slots),
-            np.int32(padded),
+            np.int32(slots),  # `padded`: the counting sort needs no power-of-two padding
             *self.geometry_args(),
-            self.keys.data,
+            self.hash_keys,
         )
         self.sort(slots)
 
