@@ -13,7 +13,7 @@
 //   7. Grow         nodes.t += dT * mass, clamped to 1
 // Uniform-grid variants (ugpcl, Params.search = grid; same results, see below):
 //   NodeGridHash   nodes -> grid keys of the active nodes (inactive slots get GRID_EMPTY_KEY and sort last);
-//                  then grid.cl's BitonicSortStep, GridClearCells and GridFindCellRanges (UniformGrid.sort)
+//                  then grid.cl's counting sort: GridCountCells, the scan, GridScatter, GridSortCells (UniformGrid.sort)
 //   Search_grid    as Search, visiting the 3x3x3 node-grid cells around the attraction (cell >= influence)
 //   Attract_grid   as Attract, visiting the 3x3x3 attraction-grid cells around the node (cell >= influence)
 //   Remove_grid    as Remove, visiting the 3x3x3 node-grid cells around the attraction (cell >= kill)

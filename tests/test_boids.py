@@ -421,5 +421,5 @@ def test_kernels_on_oclgrind(oclgrind, seed):
     np.testing.assert_allclose(lanes.state()["position"], naive.state()["position"], rtol=1e-6, atol=1e-6)
     grid = Simulation(oclgrind, Params(max_object_num=300, variant="grid"), seed)
     grid.set_boids(*spread_state(300, seed, half_size=1.5))
-    grid.step()  # GridHash, BitonicSortStep, GridFindCellRanges, ForceCS_grid
+    grid.step()  # GridHash, the scan, GridScatter, GridSortCells, ForceCS_grid
     np.testing.assert_allclose(grid.state()["position"], naive.state()["position"], rtol=1e-5, atol=1e-5)
