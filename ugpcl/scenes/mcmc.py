@@ -1,0 +1,692 @@
+"""3D spatial sampling with MCMC: Metropolis chains on a simplex-noise density, the rejection sampler and the Monte
+Carlo pi estimate (vol.1 ch.8; docs/chapters/08-mcmc.md).
+
+``mode=metropolis``: ``Prepare`` fills the L^3 lattice with Perlin's simplex noise W; ``Sequence`` runs one chain per
+work-item: Reset (uniform start points until D > 0), ``burn_in`` Next steps, then ``samples`` times (emit, Next),
+where Next proposes x + N(0, sigma^2 C) and keeps it iff ``D(x) <= 0 or min(1, D(x')/D(x)) >= U`` and
+``D(x') > threshold`` (the book's code: ``>=``, not the text's ``>``). D is the code's unnormalised sum
+``sum_i exp(-|x - p_i|^2) W_i`` (the text calls it an inverse-distance weighted average): ``density=exact`` truncates
+it at |x - p_i|^2 <= 25, ``legacy`` is the book's estimate from 500 random lattice picks, ``grid`` looks it up
+trilinearly in a precomputed ``DensityGrid``, ``gaussian`` is an analytic test target. ``mode=rejection``:
+``RejectionSequence`` keeps uniform points whose clamped noise exceeds a threshold. ``mode=pi``: ``MonteCarloPi``.
+
+Every random number comes from Philox (clkernels/include/random.h) by what it is for, so the numpy twin here
+(``noise_numpy``, ``density_numpy``, ``sequence_numpy``) redraws any chain. The simulation samples everything at
+reset; ``step`` only advances the clock that reveals chains (book: one chain per 0.1 s) and rejection batches.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+import pyopencl.cltypes as cltypes
+
+from ..benchmark import seconds_per_call
+from ..random import key_of_seed, philox4x32, uniform01
+from ..runtime import round_up
+from ..scene import Params as BaseParams
+from ..scene import Scene, param
+from ..scene import Simulation as BaseSimulation
+
+PERLIN_T = (0x15, 0x38, 0x32, 0x2C, 0x0D, 0x13, 0x07, 0x2A)
+"""Perlin's published table of the reference simplex noise (the book's generator fills T with unseeded randoms)."""
+DENSITY_MODES = ("exact", "legacy", "grid", "gaussian")
+"""Index = the kernel's DENSITY_* constant."""
+PURPOSE_STEP_XY, PURPOSE_STEP_Z, PURPOSE_RESET, PURPOSE_PALETTE = 0, 1, 2, 3
+"""Fourth Philox counter word: what a draw is for (mcmc.cl PURPOSE_*)."""
+PURPOSE_REJECTION, PURPOSE_PI, PURPOSE_LEGACY = 4, 5, 6
+LEGACY_RESET_INDEX = 0x80000000
+"""Counter index of the legacy picks of reset try t: LEGACY_RESET_INDEX + t (steps use 0, 1, ...)."""
+TRUNCATION_RADIUS = 5.0
+"""density=exact leaves out lattice points with |x - p|^2 > 25: each weighs exp(-25) = 1.4e-11."""
+GRID_MARGIN = 3
+"""Dgrid reaches this many lattice units beyond [0, L-1] on each side (exp(-9) = 1.2e-4 at its edge; 0 outside)."""
+PI_POINTS_PER_ITEM = 64
+"""Points each MonteCarloPi work-item tests (two per Philox draw)."""
+PI_GROUP_SIZE = 256
+"""MonteCarloPi's work-group (tree reduction); halved where the device cannot run it."""
+GROUP_SIZE = 64
+PALETTE = (
+    (1.0, 1.0, 1.0),
+    (1.0, 0.0, 0.0),
+    (0.0, 1.0, 1.0),
+    (0.0, 1.0, 0.0),
+    (1.0, 0.848, 0.0),
+    (1.0, 0.0, 0.0),
+    (0.117, 0.0, 1.0),
+    (1.0, 0.609, 1.0),
+    (0.0, 0.303, 0.0),
+)
+"""The sample's cube materials mat1..mat9 (mat2 and mat6 are both red); rejection points use mat1."""
+
+
+@dataclass(frozen=True)
+class Params(BaseParams):
+    limits = ("chains*samples <= 33554432", "(L+5)*oversample <= 400", "batches*limit <= 16777216")
+
+    mode: str = param("metropolis", choices=("metropolis", "rejection", "pi"))
+    """Which of the chapter's samplers runs: Metropolis chains, the rejection sampler, or the pi estimate."""
+    L: int = param(30, 2, 128)
+    """Lattice edge: L^3 noise weights at integer points, chains start in [0, L)^3 (book: lEdge, scene 30); also the
+    rejection output scale (Rejection3d lEdge, 20)."""
+    chains: int = param(600, 1, 1 << 22)
+    """Number of independent chains C, one work-item each (book: loop, scene 600)."""
+    burn_in: int = param(100, 0, 100000)
+    """Next steps before a chain emits (book: nInitialize)."""
+    samples: int = param(20, 1, 10000)
+    """States each chain emits, rejected steps repeating the state (book: nlimit, scene 20)."""
+    sigma: float = param(1.0, 0.01, 100.0)
+    """Proposal standard deviation in lattice units (book: standard normal, 1). Small values give the tight
+    "plants and flowers" clusters of section 8.6."""
+    correlation: tuple[float, float, float] = param((0.0, 0.0, 0.0), -0.99, 0.99)
+    """Proposal correlations (xy, xz, yz): covariance sigma^2 R, factored by Cholesky (book: GenerateRandomPoint,
+    without its m21-for-m20 bug). R must be positive definite."""
+    threshold: float = param(-100.0, -1e6, 1e6)
+    """Hard floor: a proposal is kept only if D(x') > threshold (book: threshold, -100 = off). Above 0 the target
+    region can fall apart into pieces no chain crosses (section 8.4.3, irreducibility)."""
+    density: str = param("exact", choices=DENSITY_MODES)
+    """Target density: exact (truncated lattice sum), legacy (the book's 500 random picks), grid (trilinear lookup
+    in a precomputed grid), gaussian (analytic test target)."""
+    legacy_picks: int = param(500, 1, 100000)
+    """Lattice points per legacy density estimate (book: weightReferenceloopCount)."""
+    oversample: int = param(4, 1, 16)
+    """Grid points per lattice unit of density=grid (whose grid has ((L + 5) oversample + 1)^3 points)."""
+    target_mean: tuple[float, float, float] = param((10.0, 10.0, 10.0), -1e4, 1e4)
+    """Mean of the gaussian target."""
+    target_sigma: float = param(2.0, 0.01, 1e4)
+    """Standard deviation of the gaussian target (per axis)."""
+    reset_limit: int = param(100, 1, 100000)
+    """Most start points a chain draws looking for D > 0 (book: limitResetLoopCount)."""
+    noise_T: str = param("perlin", choices=("perlin", "random"))
+    """Noise table: Perlin's published one, or 8 values drawn from the seed (the book: unseeded randoms)."""
+    batches: int = param(600, 1, 100000)
+    """Rejection batches (book: loop, scene 600)."""
+    limit: int = param(1000, 1, 1000000)
+    """Candidates per rejection batch (book: limit)."""
+    noise_scale: float = param(10.0, 1e-3, 1e4)
+    """Rejection candidates u in [0, 1)^3 are tested at noise(u * noise_scale) (book: pnoiseScale)."""
+    rejection_threshold: float = param(0.15, -1.0, 1.0)
+    """Keep a candidate if clamp(noise, 0, 1) > this (book: 0.75 class, 0.25 scene: the noise never reaches 0.34,
+    so both keep almost nothing; 0.15 keeps about 10%)."""
+    n: int = param(16777216, 1, 1 << 31)
+    """Points of the pi estimate (mode=pi)."""
+    chains_per_second: float = param(10.0, 0.1, 1e6, live=True)
+    """How fast the view reveals chains (book: one per 0.1 s)."""
+    batches_per_second: float = param(60.0, 0.1, 1e6, live=True)
+    """How fast the view reveals rejection batches (book: one per 0.001 s, i.e. one per frame)."""
+
+    def check(self) -> None:
+        if self.chains * self.samples > 33554432:
+            raise self.broken("chains*samples <= 33554432", f"{self.chains * self.samples} states")
+        if self.density == "grid" and (self.L + 5) * self.oversample > 400:
+            raise self.broken("(L+5)*oversample <= 400")
+        if self.batches * self.limit > 16777216:
+            raise self.broken("batches*limit <= 16777216", f"{self.batches * self.limit} candidates")
+        try:
+            self.cholesky()
+        except np.linalg.LinAlgError:
+            raise ValueError(f"correlation must make a positive definite matrix, got {self.correlation}") from None
+
+    def cholesky(self) -> np.ndarray:
+        """Lower-triangular Lc with Lc Lc^T = sigma^2 R: the proposal is x + Lc z, z standard normal."""
+        xy, xz, yz = self.correlation
+        r = np.array([[1.0, xy, xz], [xy, 1.0, yz], [xz, yz, 1.0]])
+        return np.linalg.cholesky(r) * self.sigma
+
+
+def noise_table(name: str, seed: int) -> np.ndarray:
+    """The 8-entry table T: Perlin's, or 8 values in [0, 64) drawn from the seed (only bits 0..5 of the sum matter)."""
+    if name == "perlin":
+        return np.array(PERLIN_T, np.int32)
+    return np.random.default_rng(seed).integers(0, 64, 8).astype(np.int32)
+
+
+class Simulation(BaseSimulation):
+    """The mode's sampler, run at reset; ``step`` reveals its output over time."""
+
+    Params = Params
+
+    def _reset(self) -> None:
+        p, rt = self.params, self.runtime
+        self.pi_group, self.program = rt.fitted_program(
+            "mcmc", ("MonteCarloPi",), PI_GROUP_SIZE, define="PI_GROUP_SIZE"
+        )
+        self.key = key_of_seed(self.seed)
+        self.key_arg = cltypes.make_uint2(*(int(k) for k in self.key))
+        self.T = noise_table(p.noise_T, self.seed)
+        self.T_buffer = rt.to_device(self.T)
+        self.grid = None
+        self.prepare()
+        if p.mode == "metropolis":
+            if p.density == "grid":
+                self.density_grid()
+            self.sequence()
+        elif p.mode == "rejection":
+            self.rejection_sequence()
+        else:
+            self.monte_carlo_pi()
+
+    # {{{ kernels, in the host's order
+
+    def prepare(self) -> None:
+        """Prepare: W[z, y, x] = noise(x, y, z) on the L^3 lattice."""
+        L = self.params.L
+        self.W = self.runtime.empty((L, L, L), np.float32)
+        size = round_up(L, 4)
+        self.program.kernel("Prepare")((size, size, size), (4, 4, 4), self.W, np.int32(L), self.T_buffer)
+
+    def grid_geometry(self) -> tuple[int, float, float]:
+        """(M, origin, oversample) of Dgrid: M^3 points from origin with spacing 1 / oversample."""
+        p = self.params
+        return (p.L - 1 + 2 * GRID_MARGIN) * p.oversample + 1, -float(GRID_MARGIN), float(p.oversample)
+
+    def density_grid(self) -> None:
+        """DensityGrid: the exact density on the grid density=grid reads."""
+        M, origin, oversample = self.grid_geometry()
+        self.grid = self.runtime.empty((M, M, M), np.float32)
+        size = round_up(M, 4)
+        self.program.kernel("DensityGrid")(
+            (size, size, size),
+            (4, 4, 4),
+            self.W,
+            np.int32(self.params.L),
+            self.grid,
+            np.int32(M),
+            np.float32(origin),
+            np.float32(1.0 / oversample),
+        )
+
+    def _density_args(self) -> tuple:
+        p = self.params
+        M, origin, oversample = self.grid_geometry()
+        if p.density == "grid" and self.grid is None:
+            self.density_grid()
+        return (
+            np.int32(DENSITY_MODES.index(p.density)),
+            self.grid if p.density == "grid" else self.W,
+            np.int32(p.L),
+            np.int32(M),
+            np.float32(origin),
+            np.float32(oversample),
+            np.int32(p.legacy_picks),
+            cltypes.make_float4(*p.target_mean, p.target_sigma),
+        )
+
+    def sequence(self, batch: int = 0) -> None:
+        """Sequence: every chain's Reset, burn-in and emitted states (batch: another set of random numbers)."""
+        p, rt = self.params, self.runtime
+        C, S = p.chains, p.samples
+        if getattr(self, "samples_buffer", None) is None or self.samples_buffer.shape != (C, S, 3):
+            self.samples_buffer = rt.empty((C, S, 3), np.float32)
+            self.accepted = rt.empty(C, np.uint32)
+            self.reset_tries = rt.empty(C, np.uint32)
+            self.init_density = rt.empty(C, np.float32)
+            self.palette = rt.empty(C, np.uint8)
+        lc = p.cholesky()
+        cholesky = cltypes.make_float8(lc[0, 0], lc[1, 0], lc[1, 1], lc[2, 0], lc[2, 1], lc[2, 2], 0.0, 0.0)
+        self.program.kernel("Sequence").over(
+            C,
+            GROUP_SIZE,
+            *self._density_args(),
+            self.key_arg,
+            np.uint32(batch),
+            np.int32(C),
+            np.int32(p.burn_in),
+            np.int32(S),
+            np.float32(p.threshold),
+            np.int32(p.reset_limit),
+            np.float32(p.L),
+            cholesky,
+            self.samples_buffer,
+            self.accepted,
+            self.reset_tries,
+            self.init_density,
+            self.palette,
+        )
+
+    def rejection_sequence(self, cap: int | None = None) -> None:
+        """RejectionSequence over the batches * limit candidates (ids 0, 1, ...), appending at most ``cap`` points
+        (default: all of them); the counter still counts every acceptance."""
+        p, rt = self.params, self.runtime
+        self.n_candidates = p.batches * p.limit
+        self.cap = self.n_candidates if cap is None else cap
+        self.points_buffer = rt.empty((max(self.cap, 1), 3), np.float32)
+        self.cand_buffer = rt.empty(max(self.cap, 1), np.uint32)
+        self.counter = rt.zeros(1, np.uint32)
+        self.program.kernel("RejectionSequence").over(
+            self.n_candidates,
+            GROUP_SIZE,
+            self.key_arg,
+            np.uint32(0),
+            np.int32(self.n_candidates),
+            np.float32(p.noise_scale),
+            np.float32(p.rejection_threshold),
+            np.float32(p.L),
+            self.T_buffer,
+            self.points_buffer,
+            self.cand_buffer,
+            self.counter,
+            np.uint32(self.cap),
+        )
+
+    def monte_carlo_pi(self, batch: int = 0) -> None:
+        """MonteCarloPi: hits among n points of the unit square, summed per work-group then atomically."""
+        n = self.params.n
+        items = -(-n // PI_POINTS_PER_ITEM)
+        self.hits = self.runtime.zeros(1, np.uint32)
+        self.program.kernel("MonteCarloPi").over(
+            items,
+            self.pi_group,
+            self.key_arg,
+            np.uint32(batch),
+            np.int32(PI_POINTS_PER_ITEM),
+            np.uint64(n),
+            self.hits,
+        )
+
+    def noise_at(self, points) -> np.ndarray:
+        """NoiseAt: the simplex noise at each point (n, 3)."""
+        pts = np.ascontiguousarray(points, np.float32).reshape(-1, 3)
+        out = self.runtime.empty(len(pts), np.float32)
+        if len(pts):
+            self.program.kernel("NoiseAt").over(
+                len(pts), GROUP_SIZE, self.runtime.to_device(pts), np.int32(len(pts)), self.T_buffer, out
+            )
+        return out.get()
+
+    def density_at(self, points, batch: int = 0) -> np.ndarray:
+        """DensityAt: the current density mode at each point (n, 3) (legacy: point i draws chain i's picks)."""
+        pts = np.ascontiguousarray(points, np.float32).reshape(-1, 3)
+        out = self.runtime.empty(len(pts), np.float32)
+        if len(pts):
+            self.program.kernel("DensityAt").over(
+                len(pts),
+                GROUP_SIZE,
+                *self._density_args(),
+                self.key_arg,
+                np.uint32(batch),
+                self.runtime.to_device(pts),
+                np.int32(len(pts)),
+                out,
+            )
+        return out.get()
+
+    # }}}
+
+    def step(self, dt: float | None = None) -> None:
+        """Advance the reveal clock (the samplers ran at reset)."""
+        self._advance(self.default_dt if dt is None else dt)
+
+    def revealed(self) -> int:
+        """Chains (metropolis) or batches (rejection) the view shows at the current time."""
+        p = self.params
+        if p.mode == "metropolis":
+            return min(p.chains, int(self.time * p.chains_per_second) + 1)
+        return min(p.batches, int(self.time * p.batches_per_second) + 1)
+
+    def lattice(self) -> np.ndarray:
+        return self.W.get()
+
+    def rejection_points(self) -> tuple[np.ndarray, np.ndarray]:
+        """(points (K, 3), cand_id (K,)) sorted by candidate id; K = min(accepted, cap)."""
+        k = min(int(self.counter.get()[0]), self.cap)
+        ids = self.cand_buffer.get()[:k]
+        order = np.argsort(ids, kind="stable")
+        return self.points_buffer.get()[:k][order], ids[order]
+
+    def pi_estimate(self) -> tuple[float, int]:
+        hits = int(self.hits.get()[0])
+        return 4.0 * hits / self.params.n, hits
+
+    def state(self) -> dict[str, np.ndarray]:
+        p = self.params
+        out = {"lattice_w": self.lattice(), "noise_T": self.T.copy()}
+        if p.mode == "metropolis":
+            accepted = self.accepted.get()
+            out |= {
+                "samples": self.samples_buffer.get(),
+                "accepted": accepted,
+                "reset_tries": self.reset_tries.get(),
+                "init_density": self.init_density.get(),
+                "palette": self.palette.get(),
+                "acceptance_rate": np.float64(accepted.sum(dtype=np.int64) / (p.chains * (p.burn_in + p.samples))),
+            }
+        elif p.mode == "rejection":
+            points, ids = self.rejection_points()
+            out |= {
+                "points": points,
+                "cand_id": ids,
+                "n_candidates": np.int64(self.n_candidates),
+                "n_accepted": np.int64(self.counter.get()[0]),
+            }
+        else:
+            estimate, hits = self.pi_estimate()
+            out |= {"pi_estimate": np.float64(estimate), "hits": np.int64(hits), "n": np.int64(p.n)}
+        return out
+
+    def stats(self) -> dict:
+        p = self.params
+        s = {**super().stats(), "mode": p.mode}
+        if p.mode == "metropolis":
+            accepted = self.accepted.get()
+            s |= {
+                "density": p.density,
+                "chains shown": self.revealed(),
+                "chains": p.chains,
+                "acceptance rate": float(accepted.sum(dtype=np.int64) / (p.chains * (p.burn_in + p.samples))),
+                "failed resets": int((self.init_density.get() <= 0).sum()),
+            }
+        elif p.mode == "rejection":
+            accepted = int(self.counter.get()[0])
+            s |= {
+                "batches shown": self.revealed(),
+                "accepted": accepted,
+                "candidates": self.n_candidates,
+                "acceptance rate": accepted / self.n_candidates,
+            }
+        else:
+            estimate, hits = self.pi_estimate()
+            s |= {"pi estimate": estimate, "hits": hits, "n": p.n}
+        return s
+
+    def pi_points(self, count: int) -> tuple[np.ndarray, np.ndarray]:
+        """The first ``count`` points of the pi estimate (numpy twin of MonteCarloPi's draws) and whether each hit."""
+        g = np.arange(count // 2 + 1) // (PI_POINTS_PER_ITEM // 2)
+        d = np.arange(count // 2 + 1) % (PI_POINTS_PER_ITEM // 2)
+        counters = np.column_stack([g, d, np.zeros_like(g), np.full_like(g, PURPOSE_PI)]).astype(np.uint32)
+        u = uniform01(philox4x32(counters, self.key)).reshape(-1, 2)[:count]
+        return u, (u * u).sum(axis=1, dtype=np.float32) <= np.float32(1.0)
+
+
+# {{{ numpy twin (float32 noise, float64 density; the same Philox draws as the kernels)
+
+
+def _fastfloor(n: np.ndarray) -> np.ndarray:
+    t = np.trunc(n).astype(np.int32)
+    return np.where(n > 0, t, t - 1)
+
+
+def noise_numpy(points, T) -> np.ndarray:
+    """Perlin's reference simplex noise at each point (n, 3), in float32 as the kernel computes it."""
+    F = np.float32
+    p = np.asarray(points, F).reshape(-1, 3)
+    T = np.asarray(T, np.int64)
+    x, y, z = p[:, 0], p[:, 1], p[:, 2]
+    s = (x + y + z) * F(0.333333333)
+    i, j, k = _fastfloor(x + s), _fastfloor(y + s), _fastfloor(z + s)
+    s = (i + j + k).astype(F) * F(0.166666667)
+    u, v, w = x - i.astype(F) + s, y - j.astype(F) + s, z - k.astype(F) + s
+    A = np.zeros((3, len(p)), np.int32)
+    hi = np.where(u >= w, np.where(u >= v, 0, 1), np.where(v >= w, 1, 2))
+    lo = np.where(u < w, np.where(u < v, 0, 1), np.where(v < w, 1, 2))
+    rows = np.arange(len(p))
+
+    def bit(n, b):
+        return (n >> b) & 1
+
+    def shuffle(a, b, c):
+        h = np.zeros(len(p), np.int64)
+        for B in range(8):
+            q, r, t = ((a, b, c), (b, c, a), (c, a, b))[B % 3]
+            h += T[bit(q, B) << 2 | bit(r, B) << 1 | bit(t, B)]
+        return h
+
+    def corner(a):
+        s = (A[0] + A[1] + A[2]).astype(F) * F(0.166666667)
+        X, Y, Z = u - A[0].astype(F) + s, v - A[1].astype(F) + s, w - A[2].astype(F) + s
+        t = F(0.6) - X * X - Y * Y - Z * Z
+        h = shuffle(i + A[0], j + A[1], k + A[2])
+        A[a, rows] += 1
+        b5, b4, b3, b2, b = (h >> 5) & 1, (h >> 4) & 1, (h >> 3) & 1, (h >> 2) & 1, h & 3
+        P = np.where(b == 1, X, np.where(b == 2, Y, Z))
+        Q = np.where(b == 1, Y, np.where(b == 2, Z, X))
+        R = np.where(b == 1, Z, np.where(b == 2, X, Y))
+        P, Q, R = np.where(b5 == b3, -P, P), np.where(b5 == b4, -Q, Q), np.where(b5 != (b4 ^ b3), -R, R)
+        t2 = t * t
+        value = F(8.0) * t2 * t2 * (P + np.where(b == 0, Q + R, np.where(b2 == 0, Q, R)))
+        return np.where(t < 0, F(0.0), value).astype(F)
+
+    n = corner(hi)
+    n = n + corner(3 - hi - lo)
+    n = n + corner(lo)
+    return n + corner(np.zeros_like(hi))
+
+
+def lattice_numpy(L: int, T) -> np.ndarray:
+    """W[z, y, x] = noise(x, y, z): the twin of Prepare."""
+    z, y, x = np.meshgrid(np.arange(L), np.arange(L), np.arange(L), indexing="ij")
+    return noise_numpy(np.column_stack([x.ravel(), y.ravel(), z.ravel()]), T).reshape(L, L, L)
+
+
+def density_numpy(W: np.ndarray, points, chunk: int = 4096) -> np.ndarray:
+    """density=exact in float64: sum over lattice points with |x - p|^2 <= 25 of exp(-|x - p|^2) W[p]."""
+    W = np.asarray(W, np.float64)
+    L = W.shape[0]
+    pts = np.asarray(points, np.float64).reshape(-1, 3)
+    offsets = np.arange(11)  # ceil(x - 5) .. ceil(x - 5) + 10 covers every |d| <= 5
+    out = np.empty(len(pts))
+    for start in range(0, len(pts), chunk):
+        x = pts[start : start + chunk]
+        idx = np.ceil(x - TRUNCATION_RADIUS)[:, :, None] + offsets  # (n, 3 axes, 11)
+        d2 = (x[:, :, None] - idx) ** 2
+        valid = (idx >= 0) & (idx <= L - 1)
+        ii = np.clip(idx, 0, L - 1).astype(np.intp)
+        w = W[ii[:, 2, :, None, None], ii[:, 1, None, :, None], ii[:, 0, None, None, :]]  # (n, z, y, x)
+        r2 = d2[:, 2, :, None, None] + d2[:, 1, None, :, None] + d2[:, 0, None, None, :]
+        mask = valid[:, 2, :, None, None] & valid[:, 1, None, :, None] & valid[:, 0, None, None, :]
+        mask &= r2 <= TRUNCATION_RADIUS**2
+        out[start : start + chunk] = np.where(mask, np.exp(-r2) * w, 0.0).sum(axis=(1, 2, 3))
+    return out
+
+
+def _draw(chains: np.ndarray, index, batch: int, purpose: int, key) -> np.ndarray:
+    c = np.asarray(chains, np.uint32)
+    counters = np.column_stack(
+        [c, np.broadcast_to(np.asarray(index, np.uint32), c.shape), np.full_like(c, batch), np.full_like(c, purpose)]
+    )
+    return philox4x32(counters, key)
+
+
+def _open01(bits: np.ndarray) -> np.ndarray:
+    return ((bits >> np.uint32(9)).astype(np.float32) + np.float32(0.5)) * np.float32(2.0**-23)
+
+
+def _box_muller(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    F = np.float32
+    return np.sqrt(F(-2.0) * np.log(_open01(a))) * np.sin(F(2.0 * np.pi) * _open01(b))
+
+
+def _legacy_numpy(W, x, picks, chains, index, batch, key) -> np.ndarray:
+    L = W.shape[0]
+    count = L**3
+    total = np.zeros(len(x))
+    for m in range(0, picks, 4):
+        bits = _draw(chains, index, batch, PURPOSE_LEGACY + m // 4, key)
+        for n in range(min(4, picks - m)):
+            ids = np.floor(uniform01(bits[:, n]) * np.float32(count - 1)).astype(np.int64)
+            p = np.column_stack([ids % L, (ids // L) % L, ids // (L * L)])
+            total += np.exp(-((x - p) ** 2).sum(axis=1)) * W.reshape(-1)[ids]
+    return total
+
+
+def _grid_numpy(G, geometry, x) -> np.ndarray:
+    M, origin, oversample = geometry
+    F = np.float32
+    g = (np.clip(x.astype(F), F(-1e6), F(1e6)) - F(origin)) * F(oversample)
+    f = np.floor(g)
+    i = f.astype(np.int64)
+    inside = ((i >= 0) & (i < M - 1)).all(axis=1)
+    i = np.clip(i, 0, M - 2)
+    t = (g - f).astype(np.float64)
+    out = np.zeros(len(x))
+    for dz in (0, 1):
+        for dy in (0, 1):
+            for dx in (0, 1):
+                weight = (
+                    (t[:, 0] if dx else 1 - t[:, 0])
+                    * (t[:, 1] if dy else 1 - t[:, 1])
+                    * (t[:, 2] if dz else 1 - t[:, 2])
+                )
+                out += weight * G[i[:, 2] + dz, i[:, 1] + dy, i[:, 0] + dx]
+    return np.where(inside, out, 0.0)
+
+
+def sequence_numpy(params: Params, W, key, chains, batch: int = 0, steps: int | None = None, grid=None) -> dict:
+    """The twin of Sequence for the chain ids ``chains``: the same Philox draws, float32 proposals, float64 densities.
+    ``steps`` cuts the chain short (burn-in counts); ``grid`` is the device's Dgrid for density=grid. Returns the
+    arrays Sequence writes, samples (n, S', 3) holding the emitted states within ``steps``."""
+    p = params
+    W = np.asarray(W, np.float64)
+    chains = np.asarray(chains, np.uint32)
+    n = len(chains)
+    mode = p.density
+    geometry = ((p.L - 1 + 2 * GRID_MARGIN) * p.oversample + 1, -float(GRID_MARGIN), float(p.oversample))
+
+    def density(x, index):
+        if mode == "legacy":
+            return _legacy_numpy(W, x, p.legacy_picks, chains, index, batch, key)
+        if mode == "grid":
+            return _grid_numpy(np.asarray(grid, np.float64), geometry, x)
+        if mode == "gaussian":
+            d = x - np.asarray(p.target_mean)
+            return np.exp(-(d * d).sum(axis=1) / (2 * np.float32(p.target_sigma) ** 2))
+        return density_numpy(W, x)
+
+    palette = ((_draw(chains, 0, batch, PURPOSE_PALETTE, key)[:, 0].astype(np.uint64) * 9) >> 32).astype(np.uint8)
+    cur = np.zeros((n, 3), np.float32)
+    cur_d = np.zeros(n)
+    tries = np.zeros(n, np.uint32)
+    for t in range(p.reset_limit):
+        active = cur_d <= 0
+        if not active.any():
+            break
+        u = uniform01(_draw(chains, t, batch, PURPOSE_RESET, key))[:, :3]
+        start = np.float32(p.L) * u
+        d = density(start, LEGACY_RESET_INDEX + t)
+        cur[active], cur_d[active] = start[active], d[active]
+        tries[active] += 1
+    init_density = cur_d.copy()
+    lc = p.cholesky().astype(np.float32)
+    total = p.burn_in + p.samples if steps is None else steps
+    emitted, accepted = [], np.zeros(n, np.uint32)
+    for s in range(total):
+        if s >= p.burn_in:
+            emitted.append(cur.copy())
+        xy = _draw(chains, s, batch, PURPOSE_STEP_XY, key)
+        zu = _draw(chains, s, batch, PURPOSE_STEP_Z, key)
+        z = np.column_stack(
+            [_box_muller(xy[:, 0], xy[:, 1]), _box_muller(xy[:, 2], xy[:, 3]), _box_muller(zu[:, 0], zu[:, 1])]
+        )
+        nxt = cur + z @ lc.T
+        nd = density(nxt, s)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.minimum(1.0, nd / np.where(cur_d > 0, cur_d, 1.0))
+        keep = ((cur_d <= 0) | (ratio >= _open01(zu[:, 2]))) & (nd > np.float32(p.threshold))
+        cur[keep], cur_d[keep] = nxt[keep], nd[keep]
+        accepted += keep
+    samples = np.stack(emitted, axis=1) if emitted else np.zeros((n, 0, 3), np.float32)
+    return {
+        "samples": samples,
+        "accepted": accepted,
+        "reset_tries": tries,
+        "init_density": init_density,
+        "palette": palette,
+    }
+
+
+# }}}
+
+
+def _integrated_time(x: np.ndarray) -> float:
+    """Mean integrated autocorrelation time over the coordinates of x (steps, walkers, dims), emcee's estimator."""
+    from emcee.autocorr import integrated_time
+
+    logging.getLogger("emcee").setLevel(logging.ERROR)  # short chains: "chain shorter than 50 tau" is expected
+    moving = x.std(axis=0).min(axis=1) > 0  # a walker that never moved has no autocorrelation (legacy: many)
+    if not moving.any():
+        return float("inf")
+    return float(np.mean(integrated_time(x[:, moving], quiet=True)))
+
+
+def bench(runtime, sizes=None) -> list[dict]:
+    """Sequence per density mode: chain-steps/s (burn-in + emitted steps of every chain) and effective samples per
+    second (emitted states / integrated autocorrelation time, emcee's estimator averaged over x, y, z), for C chains
+    x 1000 steps (PoCL: 100), beside emcee's ensemble sampler (vectorised log-probability) on the same gaussian
+    target, where emcee is installed."""
+    try:
+        import emcee
+    except ImportError:
+        emcee = None
+    sizes = sizes or ([10**4, 10**5] if runtime.is_gpu else [10**4])
+    steps = 1000 if runtime.is_gpu else 100
+    burn_in = steps // 10
+    rows = []
+    for chains in sizes:
+        for density in DENSITY_MODES:
+            lattice = {"L": 20} if density == "gaussian" else {"L": 30}
+            p = Params(chains=chains, burn_in=burn_in, samples=steps, density=density, **lattice)
+            sim = Simulation(runtime, p, seed=0)
+            seconds = seconds_per_call(sim.sequence, runtime.queue, min_seconds=0.5, max_calls=5)
+            samples = sim.samples_buffer.get()
+            tau = _integrated_time(np.swapaxes(samples, 0, 1)) if emcee else float("nan")
+            rows.append(
+                {
+                    "sampler": "ugpcl Sequence",
+                    "density": density,
+                    "chains": chains,
+                    "steps": burn_in + steps,
+                    "ms": seconds * 1e3,
+                    "chain-steps/s": chains * (burn_in + steps) / seconds,
+                    "tau": tau,
+                    "ESS/s": chains * steps / tau / seconds,
+                }
+            )
+    if emcee is not None:
+        p = Params(density="gaussian")
+        mean, var = np.asarray(p.target_mean), p.target_sigma**2
+
+        def log_prob(x):
+            return -((x - mean) ** 2).sum(axis=-1) / (2 * var)
+
+        walkers, emcee_steps = 64, 20 * steps
+        start = mean + np.random.default_rng(0).normal(size=(walkers, 3))
+        sampler = emcee.EnsembleSampler(walkers, 3, log_prob, vectorize=True)
+        import time
+
+        begin = time.perf_counter()
+        sampler.run_mcmc(start, emcee_steps + burn_in * 20)
+        seconds = time.perf_counter() - begin
+        chain = sampler.get_chain(discard=burn_in * 20)
+        tau = _integrated_time(chain)
+        rows.append(
+            {
+                "sampler": f"emcee {emcee.__version__}",
+                "density": "gaussian",
+                "chains": walkers,
+                "steps": emcee_steps + burn_in * 20,
+                "ms": seconds * 1e3,
+                "chain-steps/s": walkers * (emcee_steps + burn_in * 20) / seconds,
+                "tau": tau,
+                "ESS/s": walkers * emcee_steps / tau / seconds,
+            }
+        )
+    return rows
+
+
+SCENES = [
+    Scene(
+        "mcmc",
+        Simulation,
+        "Metropolis chains sampling a simplex-noise density, one colour per chain (vol.1 ch.8)",
+        preview={"steps": 60, "chains_per_second": 1e6},
+    ),
+    Scene(
+        "mcmc_rejection",
+        Simulation,
+        "Rejection sampling of the noise superlevel set {noise > 0.15}, for comparison (vol.1 ch.8)",
+        defaults={"mode": "rejection", "L": 20},
+        preview={"steps": 60, "batches_per_second": 1e6},
+    ),
+]
