@@ -1,0 +1,364 @@
+"""Poisson disk sampling: random points never closer than r that fill a box until no more fit (vol.4 ch.7, Bridson's
+"Fast Poisson Disk Sampling in Arbitrary Dimensions"; docs/chapters/18-poisson-disk.md).
+
+``method=bridson`` is the chapter's algorithm on the host (``ugpcl.geometry.poisson_disk``), in any dimension;
+each step runs ``steps_per_frame`` of its active-point steps, so the view animates the growth as the sample's
+coroutine does (0: the whole sampling in the first step, as ``ugpcl run``). ``method=gpu`` (not in the book, which
+notes Bridson's method has no parallel form) is multi-phase dart throwing on the same grid, clkernels/poisson_disk.cl:
+per step one round of ``ThrowDarts`` over the 3^n cell phases, k rounds in all, then ``CompactSamples``.
+
+Differences from the book: ``fill=true`` throws darts into the gaps either method leaves (about 0.1 % of the area
+after Bridson) until the sampling is maximal; ``annulus=volume`` draws candidates uniformly in the n-ball shell
+(the sample's 3-D radius is sqrt-distributed); the domain is ``lo`` and ``size`` (the sample's bottomLeft and
+topRight - bottomLeft); random numbers come from PCG64 (host) and Philox (kernel), never Unity's.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import pyopencl.cltypes as cltypes
+
+from ..geometry import poisson_disk as pd
+from ..random import key_of_seed
+from ..scene import ParamError, Scene, check_dt, param
+from ..scene import Params as BaseParams
+from ..scene import Simulation as BaseSimulation
+
+MAX_GRID_CELLS = 1 << 26
+"""Largest background grid (cells of r / sqrt(n)): 256 MiB of int32 on the host, 1.3 GiB on the device for the
+gpu method. The unit cube at r = 0.001 would need 5e9."""
+GPU_DIMS = (2, 3)
+"""Dimensions of the dart-throwing kernel (cells of one phase must stay more than r apart: n <= 3)."""
+R2_MARGIN = 1.0 + 2.0**-19
+"""(1 + 2^-20)^2, rounded up: the kernel rejects darts within r * (1 + 2^-20), so float32 rounding of positions and
+squared distances (a few 2^-24 relative) never brings two samples closer than r."""
+GROUP = 64
+"""Work-group size of both kernels (no local memory: any size works)."""
+
+
+@dataclass(frozen=True)
+class Params(BaseParams):
+    dim: int = param(2, 2, 6)
+    """Dimension n of the domain (the sample: 2 and 3; method=gpu: 2 or 3)."""
+    lo: tuple[float, float, float] = param((0.0, 0.0, 0.0), -1e6, 1e6)
+    """Domain min corner (bottomLeft / bottomLeftBack); 2-D uses x, y; beyond 3-D every further axis takes x's."""
+    size: tuple[float, float, float] = param((1.0, 1.0, 1.0), 0.0, 1e6, lo_open=True)
+    """Domain extent per axis (topRight - bottomLeft), same axes as lo."""
+    r: float = param(10.0, 0.0, 1e6, lo_open=True)
+    """Smallest distance between two samples, domain units (minimumDistance)."""
+    k: int = param(30, 1, 1000)
+    """Candidates per active point (iterationPerPoint; the sample maps <= 0 to 30); method=gpu: rounds of darts."""
+    method: str = param("bridson", choices=("bridson", "gpu"))
+    """bridson: the chapter's algorithm on the host; gpu: multi-phase dart throwing, ThrowDarts (not in the book)."""
+    annulus: str = param("area", choices=pd.ANNULI)
+    """Candidate distance r..2r: area = sqrt(U[r^2, 4r^2]) as the sample; volume = uniform in the n-ball shell."""
+    fill: bool = False
+    """After sampling, throw darts into the uncovered gaps until none is left (maximal; not in the book)."""
+    steps_per_frame: int = param(0, 0, 1 << 20, live=True)
+    """Sampler steps per simulation step: active points (bridson) or dart rounds (gpu); 0: all in the first step.
+    The view animates with 2 (the sample: one active point per 0.01 s)."""
+    radius_rate: float = param(0.5, 0.0, 2.0, live=True)
+    """Drawn radius = r * radius_rate / 2 (radiusRate; 1 draws touching discs)."""
+    record_steps: bool = False
+    """Keep the active list's length after every step (active_count in the .npz; bridson)."""
+    compare_scipy: bool = False
+    """Also sample with scipy.stats.qmc.PoissonDisk (scipy_points in the .npz; fill_space, the same r and k)."""
+
+    def check(self) -> None:
+        if self.method == "gpu" and self.dim not in GPU_DIMS:
+            raise ValueError(f"method=gpu needs dim 2 or 3, got dim={self.dim}")
+
+    @property
+    def domain(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lo, hi) float64 of length dim."""
+        lo = np.array([self.lo[min(a, 2)] if a < 3 else self.lo[0] for a in range(self.dim)])
+        size = np.array([self.size[min(a, 2)] if a < 3 else self.size[0] for a in range(self.dim)])
+        return lo, lo + size
+
+
+class Simulation(BaseSimulation):
+    """Reset: the grid and the first sample (bridson) or empty cells (gpu); each step: ``steps_per_frame`` sampler
+    steps (``sample_step``), then, once the sampler is done, the gap fill when ``fill`` is set."""
+
+    Params = Params
+
+    def _reset(self) -> None:
+        p = self.params
+        self.lo, self.hi = p.domain
+        cells = math.prod(pd.grid_shape(self.hi - self.lo, p.r))
+        if cells > MAX_GRID_CELLS:
+            raise ParamError(
+                f"r={p.r:g} over a domain of size {tuple(self.hi - self.lo)} needs a grid of {cells} cells "
+                f"(limit {MAX_GRID_CELLS}): raise r or shrink size"
+            )
+        self.gaps = np.zeros((0, p.dim))
+        self.filled = False
+        self.active_counts: list[int] = []
+        self.seconds = 0.0
+        """Wall time of the sampler (and fill) so far: the view's status line."""
+        if p.method == "bridson":
+            self.stepper = pd.BridsonStepper(self.lo, self.hi, p.r, p.k, self.seed, p.annulus)
+        else:
+            self._reset_gpu()
+
+    # {{{ the gpu method: ThrowDarts, CompactSamples
+
+    def _reset_gpu(self) -> None:
+        p, rt = self.params, self.runtime
+        self.program = rt.program("poisson_disk", DIM=p.dim)
+        self.throw_darts = self.program.kernel("ThrowDarts")
+        self.compact_samples = self.program.kernel("CompactSamples")
+        extent = self.hi - self.lo
+        self.cell = pd.cell_size(p.r, p.dim)
+        dims = [math.ceil(e / self.cell) for e in extent] + [1] * (3 - p.dim)
+        self.dims = cltypes.make_int4(*dims, 0)
+        self.grid_dims = dims
+        self.cell_count = math.prod(dims)
+        self.cell_used = rt.zeros(self.cell_count, np.int32)
+        self.cell_pts = rt.zeros(self.cell_count * 4, np.float32)
+        self.samples_d = rt.empty(self.cell_count * 4, np.float32)
+        self.sample_cells_d = rt.empty(self.cell_count, np.int32)
+        self.counter = rt.zeros(2, np.int32)
+        self.extent = cltypes.make_float4(*extent, *[0.0] * (4 - p.dim))
+        self.key = cltypes.make_uint2(*key_of_seed(self.seed))
+        self.rounds = 0
+        self._compacted: tuple[int, np.ndarray, np.ndarray] | None = None
+        phases = np.stack(np.meshgrid(*[np.arange(3)] * p.dim, indexing="ij"), -1).reshape(-1, p.dim)
+        self.phases = [tuple(int(v) for v in ph) + (0,) * (3 - p.dim) for ph in phases[:, ::-1]]  # x fastest
+
+    def throw_round(self) -> None:
+        """One round: ThrowDarts over each phase in turn (the launches in between are the only synchronisation)."""
+        p = self.params
+        r2_reject = np.float32(p.r * p.r * R2_MARGIN)
+        for phase in self.phases:
+            phase_dims = [max(0, -(-(d - ph) // 3)) for d, ph in zip(self.grid_dims, phase, strict=True)]
+            n = int(np.prod(phase_dims))
+            self.throw_darts.over(
+                n, GROUP, self.cell_used, self.cell_pts, self.dims, cltypes.make_int4(*phase, 0),
+                cltypes.make_int4(*phase_dims, 0), np.int32(n), np.uint32(self.rounds), self.key,
+                np.float32(self.cell), self.extent, r2_reject,
+            )  # fmt: skip
+        self.rounds += 1
+
+    def compact(self) -> tuple[np.ndarray, np.ndarray]:
+        """CompactSamples, then a sort by cell id (append order varies): (points (N, dim) float64, cell ids)."""
+        if self._compacted is None or self._compacted[0] != self.rounds:
+            self.counter.fill(0)
+            self.compact_samples.over(
+                self.cell_count, GROUP, self.cell_used, self.cell_pts, np.int32(self.cell_count), self.samples_d,
+                self.sample_cells_d, self.counter,
+            )  # fmt: skip
+            n = int(self.counter.get()[0])
+            cells = self.sample_cells_d[:n].get()
+            order = np.argsort(cells, kind="stable")
+            local = self.samples_d[: 4 * n].get().reshape(-1, 4)[order, : self.params.dim]
+            self._compacted = (self.rounds, self.lo + local.astype(np.float64), cells[order])
+        return self._compacted[1], self._compacted[2]
+
+    # }}}
+
+    # {{{ stepping
+
+    @property
+    def sampled(self) -> bool:
+        """The sampler is done: the active list is empty (bridson) or k rounds ran (gpu)."""
+        return self.stepper.done if self.params.method == "bridson" else self.rounds >= self.params.k
+
+    @property
+    def done(self) -> bool:
+        return self.sampled and (self.filled or not self.params.fill)
+
+    def sample_step(self) -> bool:
+        """One sampler step: an active point and its k candidates (bridson) or one round of darts (gpu); then the
+        fill once the sampler is done. False when there was nothing left to do."""
+        if self.done:
+            return False
+        start = time.perf_counter()
+        if not self.sampled:
+            if self.params.method == "bridson":
+                self.stepper.step()
+                if self.params.record_steps:
+                    self.active_counts.append(len(self.stepper.active))
+            else:
+                self.throw_round()
+        elif not self.filled:
+            self.gaps = pd.fill_gaps(self.sampler_points(), self.lo, self.hi, self.params.r, self.seed)
+            self.filled = True
+        self.seconds += time.perf_counter() - start
+        return True
+
+    def finish(self) -> None:
+        """Run the sampler (and the fill) to the end."""
+        while self.sample_step():
+            pass
+
+    def step(self, dt: float | None = None) -> None:
+        dt = check_dt(dt, self.default_dt)
+        n = self.params.steps_per_frame
+        if n == 0:
+            self.finish()
+        else:
+            for _ in range(n):
+                if not self.sample_step():
+                    break
+        self._advance(dt)
+
+    # }}}
+
+    # {{{ results
+
+    def sampler_points(self) -> np.ndarray:
+        """The sampler's samples without the fill's: insertion order (bridson) or by cell (gpu)."""
+        return self.stepper.points if self.params.method == "bridson" else self.compact()[0]
+
+    def points(self) -> np.ndarray:
+        """Every sample, (N, dim) float64: the sampler's, then the fill's."""
+        return np.concatenate([self.sampler_points(), self.gaps])
+
+    def active(self) -> np.ndarray:
+        """Indices of the active samples (bridson; empty for gpu)."""
+        return np.array(self.stepper.active if self.params.method == "bridson" else [], np.int32)
+
+    def current(self) -> int:
+        """The sample the last bridson step threw candidates around (-1 before the first and for gpu)."""
+        return self.stepper.current if self.params.method == "bridson" else -1
+
+    def grid(self) -> np.ndarray:
+        """GetGrid's array (ceil(extent / cell) + 1 per axis): each sample's index in its cell, -1 elsewhere."""
+        points = self.points()
+        grid = np.full(pd.grid_shape(self.hi - self.lo, self.params.r), -1, np.int32)
+        cells = np.floor((points - self.lo) / pd.cell_size(self.params.r, self.params.dim)).astype(np.int64)
+        grid[tuple(cells.T)] = np.arange(len(points), dtype=np.int32)
+        return grid
+
+    def sampler_steps(self) -> int:
+        return self.stepper.steps if self.params.method == "bridson" else self.rounds
+
+    def scipy_points(self) -> np.ndarray:
+        """scipy.stats.qmc.PoissonDisk on the same box, r and k (fill_space)."""
+        from scipy.stats import qmc
+
+        p = self.params
+        engine = qmc.PoissonDisk(p.dim, radius=p.r, ncandidates=p.k, l_bounds=self.lo, u_bounds=self.hi, rng=self.seed)
+        return engine.fill_space()
+
+    def state(self) -> dict[str, np.ndarray]:
+        points = self.points()
+        state = {
+            "points": points,
+            "grid": self.grid(),
+            "sampler_steps": np.int32(self.sampler_steps()),  # the spec's "steps": the CLI records its own steps
+            "nn_dist": pd.nearest_distances(points),
+            "active": self.active(),
+            "filled": np.int32(len(self.gaps)),
+        }
+        if self.params.record_steps:
+            state["active_count"] = np.array(self.active_counts, np.int32)
+        if self.params.compare_scipy:
+            state["scipy_points"] = self.scipy_points()
+        return state
+
+    def stats(self) -> dict:
+        points = self.points()
+        return {
+            **super().stats(),
+            "method": self.params.method,
+            "samples": len(points),
+            "gap samples": len(self.gaps),
+            "active": len(self.active()),
+            "sampler steps": self.sampler_steps(),
+            "done": self.done,
+            "packing density": round(pd.packing_density(points, self.lo, self.hi, self.params.r), 4),
+        }
+
+    # }}}
+
+
+# {{{ bench
+
+
+def _measure(rows: list, domain: str, r: float, solver: str, seconds: float, points, lo, hi) -> None:
+    rows.append({
+        "domain": domain, "r": r, "solver": solver, "points": len(points), "s": seconds,
+        "points/s": len(points) / seconds, "uncovered %": 100 * pd.uncovered_fraction(points, lo, hi, r),
+        "packing": pd.packing_density(points, lo, hi, r),
+    })  # fmt: skip
+
+
+def bench(runtime, sizes=None) -> list[dict]:
+    """Points/s of the chapter's Bridson (host, numpy), scipy.stats.qmc.PoissonDisk (fill_space) and the dart-throwing
+    kernel (k = 30 rounds; compaction and transfer included), each also with fill=true, in the unit square at
+    r = 0.01, 0.003, 0.001 and the unit cube at r = 0.02 (sizes: 1/r of the square; the cube stays at r = 0.02).
+    uncovered %: share of 200 000 uniform probes farther than r from every sample; packing: N * ball(r/2) / volume.
+    Default on a CPU device: r = 0.01 and 0.003 (the host samplers take minutes at r = 0.001)."""
+    from scipy.stats import qmc
+
+    radii = [1.0 / s for s in sizes] if sizes else ([0.01, 0.003, 0.001] if runtime.is_gpu else [0.01, 0.003])
+    cases = [(2, r) for r in radii] + [(3, 0.02)]
+    rows: list[dict] = []
+    for dim, r in cases:
+        lo, hi = np.zeros(dim), np.ones(dim)
+        name = "unit square" if dim == 2 else "unit cube"
+        size = (1.0, 1.0, 1.0)
+        start = time.perf_counter()
+        points = pd.bridson(lo, hi, r)
+        _measure(rows, name, r, "bridson (host)", time.perf_counter() - start, points, lo, hi)
+        start = time.perf_counter()
+        gaps = pd.fill_gaps(points, lo, hi, r)
+        _measure(rows, name, r, "bridson + fill", time.perf_counter() - start + rows[-1]["s"],
+                 np.concatenate([points, gaps]), lo, hi)  # fmt: skip
+        start = time.perf_counter()
+        points = qmc.PoissonDisk(dim, radius=r, l_bounds=lo, u_bounds=hi, rng=0).fill_space()
+        _measure(rows, name, r, "scipy PoissonDisk", time.perf_counter() - start, points, lo, hi)
+        params = Params(dim=dim, size=size, r=r, method="gpu")
+        Simulation(runtime, params, 0).finish()  # warm-up: the build
+        runtime.finish()
+        start = time.perf_counter()
+        sim = Simulation(runtime, params, 0)
+        sim.finish()
+        points = sim.points()
+        _measure(rows, name, r, "gpu (ThrowDarts)", time.perf_counter() - start, points, lo, hi)
+        start = time.perf_counter()
+        gaps = pd.fill_gaps(points, lo, hi, r)
+        _measure(rows, name, r, "gpu + fill", time.perf_counter() - start + rows[-1]["s"],
+                 np.concatenate([points, gaps]), lo, hi)  # fmt: skip
+    return rows
+
+
+# }}}
+
+
+SCENES = [
+    Scene(
+        "poisson_disk",
+        Simulation,
+        "Poisson disk sampling by Bridson's algorithm, 2-D discs (vol.4 ch.7)",
+        defaults={"lo": (100.0, -100.0, 0.0), "size": (200.0, 200.0, 1.0), "r": 5.0, "radius_rate": 1.0},
+        preview={"steps": 1},
+    ),
+    Scene(
+        "poisson_disk_3d",
+        Simulation,
+        "Poisson disk sampling by Bridson's algorithm in a cube, spheres (vol.4 ch.7)",
+        defaults={"dim": 3, "lo": (-100.0, -100.0, -100.0), "size": (200.0, 200.0, 200.0), "r": 10.0},
+        view="View3D",
+        preview={"steps": 1},
+    ),
+    Scene(
+        "poisson_disk_gpu",
+        Simulation,
+        "Poisson disk sampling by multi-phase dart throwing on the GPU, 2-D discs (vol.4 ch.7)",
+        defaults={
+            "lo": (100.0, -100.0, 0.0),
+            "size": (200.0, 200.0, 1.0),
+            "r": 5.0,
+            "radius_rate": 1.0,
+            "method": "gpu",
+        },  # fmt: skip
+        preview={"steps": 1},
+    ),
+]
