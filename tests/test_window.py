@@ -10,6 +10,7 @@ import sys
 import time
 from pathlib import Path
 
+import imageio.v3 as iio
 import numpy as np
 import pytest
 from helpers import foreground
@@ -185,3 +186,120 @@ def test_ear_clipping_draws_a_ring_with_left_clicks_and_closes_it_with_a_right_c
     shot = np.asarray(Image.open(next((tmp_path / "out").glob("ear_clipping-*.png"))).convert("RGB"))
     inside = foreground(shot[130:160, 145:175], (0.0, 0.0, 0.0))  # around the triangle's centroid (160, 140)
     assert inside.mean() > 0.9, "the closed ring was not filled"
+
+
+SLIDER_GRAB = (61, 133, 224)
+"""Dear ImGui's default slider grab colour (style SliderGrab 0.24, 0.52, 0.88): how the test finds the sliders."""
+
+
+def wait_for(paths, count: int = 1, seconds: float = 30.0) -> list:
+    """The files matching the glob ``paths`` (folder, pattern) once ``count`` exist (or after ``seconds``)."""
+    folder, pattern = paths
+    deadline = time.time() + seconds
+    while time.time() < deadline and len(list(folder.glob(pattern))) < count:
+        time.sleep(0.2)
+    return sorted(folder.glob(pattern))
+
+
+@pytest.mark.gl
+def test_panel_opens_and_dragged_sliders_change_the_simulation(display, tmp_path):
+    """H opens the panel (its sliders appear at the right). Dragging max_speed (live) to its left end applies it at
+    once; dragging max_object_num (not live) to 1 waits, and "reset to apply" then leaves one boid on screen."""
+    env = {**os.environ, "DISPLAY": display}
+    viewer = Path(sys.executable).parent / "ugpcl-view"
+    argv = [str(viewer), "boids", "--set", "max_object_num=512", "--size", "900x600"]
+    app = subprocess.Popen(argv, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    shots = (tmp_path / "out", "boids-*.png")
+
+    def screenshot() -> np.ndarray:
+        count = len(list(shots[0].glob(shots[1]))) + 1
+        xdotool(env, "key", "s")
+        return np.asarray(Image.open(wait_for(shots, count)[-1]).convert("RGB"))
+
+    def drag(x0: int, x1: int, y: int) -> None:
+        xdotool(env, "mousemove", "--window", window, str(x0), str(y))
+        time.sleep(0.5)
+        xdotool(env, "mousedown", "1")
+        time.sleep(1.0)
+        xdotool(env, "mousemove", "--window", window, str(x0 - 20), str(y))
+        time.sleep(0.5)
+        xdotool(env, "mousemove", "--window", window, str(x1), str(y))
+        time.sleep(1.0)
+        xdotool(env, "mouseup", "1")
+        time.sleep(1.0)
+
+    try:
+        window = xdotool(env, "search", "--sync", "--onlyvisible", "--name", "ugpcl").splitlines()[0]
+        xdotool(env, "windowfocus", "--sync", window)
+        time.sleep(2.0)
+        closed = screenshot()
+        xdotool(env, "key", "h")
+        time.sleep(1.5)
+        opened = screenshot()
+        grab = np.abs(opened.astype(int) - SLIDER_GRAB).sum(axis=-1) <= 6
+        rows = np.flatnonzero(grab.any(axis=1))
+        starts = rows[np.r_[True, np.diff(rows) > 1]]  # the first row of each slider's grab, top to bottom
+        centre = [(int(np.flatnonzero(grab[y + 4]).mean()), int(y) + 4) for y in starts]
+        # sliders in field order: max_object_num, 3 neighbourhood radii, then max_speed
+        drag(centre[4][0], 505, centre[4][1])
+        drag(centre[0][0], 505, centre[0][1])
+        many = screenshot()
+        # "reset to apply" sits left in the row above the "parameters" header, which is above the first slider
+        xdotool(env, "mousemove", "--window", window, "530", str(centre[0][1] - 46), "click", "1")
+        time.sleep(2.0)
+        one = screenshot()
+        xdotool(env, "key", "Escape")
+        assert app.wait(timeout=30) == 0
+    finally:
+        if app.poll() is None:
+            app.kill()
+        _, err = app.communicate()
+    assert "Traceback" not in err, err
+    assert not (np.abs(closed.astype(int) - SLIDER_GRAB).sum(axis=-1) <= 6).any(), "a slider showed before H"
+    assert len(starts) >= 5 and grab[:, 500:].any() and not grab[:, :500].any(), "no panel at the right after H"
+    lines = [line for line in err.splitlines() if line.startswith("ugpcl-view: max_")]
+    speed = [line for line in lines if line.startswith("ugpcl-view: max_speed = ")]
+    assert speed and speed[-1].endswith("(live)") and float(speed[-1].split()[3]) < 0.02, err
+    assert "ugpcl-view: max_object_num = 1 (pending: reset to apply)" in lines, err
+    assert "ugpcl-view: reset with max_object_num=1" in err, err
+    scene = np.s_[40:, :500]  # left of the panel, below the status line
+    background = view_class(scenes()["boids"]).background
+    before, after = (foreground(shot[scene], background, 40).mean() for shot in (many, one))
+    assert before > 0.02 and after < before / 20, f"{before:.4f} -> {after:.4f} of the scene covered by boids"
+
+
+@pytest.mark.gl
+def test_record_keys_write_an_mp4_and_a_png_sequence_of_the_window(display, tmp_path):
+    """F9 records the window to out/boids-<time>.mp4 until pressed again; F10 the same as PNGs."""
+    env = {**os.environ, "DISPLAY": display}
+    viewer = Path(sys.executable).parent / "ugpcl-view"
+    argv = [str(viewer), "boids", "--size", "320x240"]
+    app = subprocess.Popen(argv, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        window = xdotool(env, "search", "--sync", "--onlyvisible", "--name", "ugpcl").splitlines()[0]
+        xdotool(env, "windowfocus", "--sync", window)
+        time.sleep(2.0)
+        for key in ("F9", "F10"):
+            xdotool(env, "key", key)
+            time.sleep(3.0)
+            xdotool(env, "key", key)
+            time.sleep(1.0)
+        xdotool(env, "key", "Escape")
+        assert app.wait(timeout=30) == 0
+    finally:
+        if app.poll() is None:
+            app.kill()
+        _, err = app.communicate()
+    assert "Traceback" not in err, err
+    assert "max_object_num=2048" in err, "on a CPU device boids start at the interactive size"
+    written = [line.split()[2:] for line in err.splitlines() if line.startswith("ugpcl-view: wrote out/")]
+    assert len(written) == 2, err
+    (video, video_count), (folder, folder_count) = [(tmp_path / w[0], int(w[1].strip("("))) for w in written]
+    frames = iio.imread(video)
+    assert video.suffix == ".mp4" and frames.shape == (video_count, 240, 320, 3) and video_count >= 2
+    pngs = sorted(folder.glob("frame-*.png"))
+    assert len(pngs) == folder_count >= 2
+    first, last = (np.asarray(Image.open(p).convert("RGB")) for p in (pngs[0], pngs[-1]))
+    background = view_class(scenes()["boids"]).background
+    assert foreground(last, background, 40).mean() > 0.01, "the recorded frame shows no boids"
+    assert (first != last).any(), "the boids did not move while recording"

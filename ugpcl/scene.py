@@ -366,6 +366,9 @@ class Scene:
     """Name of the view class in ``viewer/views/<stem>.py`` (None: the module's ``View``)."""
     preview: dict = field(default_factory=lambda: {"steps": 300})
     """How docs/img/<name>.png is made (``make png``): ``steps`` and parameter overrides."""
+    interactive: dict = field(default_factory=dict)
+    """Parameter overrides the viewer starts with on a CPU device, sized to run at interactive rates there (the
+    book's sizes are for a GPU); ``--set`` still wins, and ``ugpcl run`` ignores them."""
 
     @property
     def stem(self) -> str:

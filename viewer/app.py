@@ -1,7 +1,11 @@
 """``ugpcl-view SCENE``: the interactive window (moderngl-window) with the keys every scene shares.
 
-Shared keys live in SHARED_KEYS; a scene's own keys in its View's ``keys`` table. The help overlay (H) and
+Shared keys live in SHARED_KEYS; a scene's own keys in its View's ``keys`` table. The panel's "keys" section and
 ``ugpcl-view --keys SCENE`` (the README tables) are both generated from those two tables.
+
+The panel (H) is Dear ImGui through imgui-bundle: the HUD (frame rate, where the time goes, device, steps), one
+widget per parameter (``viewer.panel``, generated from the scene's Params) and the keys. On a CPU device the scene
+starts at its ``Scene.interactive`` sizes, so that it runs at interactive rates; ``--set`` still wins.
 """
 
 from __future__ import annotations
@@ -14,12 +18,27 @@ from pathlib import Path
 
 import moderngl
 import moderngl_window as mglw
+from imgui_bundle import imgui
 
 from ugpcl import resources
-from ugpcl.cli import Diverged, HelpFormatter, UsageError, Watch, parse_sets, parse_size, quiet_broken_pipe, scene_named
+from ugpcl.cli import (
+    Diverged,
+    HelpFormatter,
+    UsageError,
+    Watch,
+    parse_sets,
+    parse_size,
+    quiet_broken_pipe,
+    scene_named,
+    written_whole,
+)
 from ugpcl.runtime import BuildError, DeviceError, Runtime
+from ugpcl.scene import _show
 
 from .gl import TextOverlay, read_pixels, save_png
+from .imgui_renderer import ImguiRenderer
+from .panel import Panel, draw_widget
+from .record import Recorder
 from .views import Key, View, create_view, view_class
 
 SHARED_KEYS = (
@@ -27,9 +46,16 @@ SHARED_KEYS = (
     Key("n", "single step (while paused)", "single_step"),
     Key("r", "reset (re-seed)", "reset"),
     Key("s", "screenshot to out/<scene>-<time>.png", "screenshot"),
-    Key("h", "help overlay on/off", "toggle_help"),
+    Key("h", "panel on/off: HUD, parameters (ctrl+click a slider to type), keys", "toggle_panel"),
+    Key("f9", "record the window to out/<scene>-<time>.mp4 (again: stop)", "toggle_video"),
+    Key("f10", "record the window as PNGs to out/<scene>-<time>/ (again: stop)", "toggle_frames"),
     Key("esc", "quit", "quit"),
 )
+PANEL_WIDTH = 400
+PANEL_OPEN_FROM = 960
+"""The panel starts open in a window at least this wide (it leaves most of the scene in view); H toggles it."""
+SMOOTHING = 0.05
+"""Weight of the newest frame in the HUD's running averages."""
 MOUSE_HELP = "mouse: left drag = orbit (3D) or the scene's brush (2D), right drag = orbit, wheel = zoom"
 
 
@@ -64,16 +90,26 @@ class ViewerWindow(mglw.WindowConfig):
         self.scene = launch["scene"]
         self.runtime = launch["runtime"]
         self.sim = self.scene.simulation(self.runtime, launch["params"], launch["seed"])
+        self.sized = launch.get("sized", {})  # the CPU-sized overrides in effect (the HUD says so)
         self.view: View = create_view(self.scene, self.ctx, self.sim)
         self.camera = self.view.make_camera()
         self.camera.aspect = self.wnd.aspect_ratio
-        self.paused, self.step_once, self.show_help = False, False, False
+        self.paused, self.step_once = False, False
         self.right_click = False  # the right button is down and has not moved
+        self.in_panel = False  # the mouse button went down on the panel
         self.watch, self.diverged = Watch(self.sim), None  # diverged: the message while the state holds NaN/inf
         self.overlay = TextOverlay(self.ctx)
-        self.wnd.title = f"ugpcl - {self.view.title or self.scene.name}  (H: help)"
+        self.wnd.title = f"ugpcl - {self.view.title or self.scene.name}  (H: panel)"
         self.key_names = self._key_names()
-        print(f"ugpcl-view: {self.scene.name} on {self.runtime.label}; H shows the keys", file=sys.stderr)
+        imgui.create_context()
+        imgui.get_io().set_ini_filename("")  # no imgui.ini left in the user's folder
+        self.imgui = ImguiRenderer(self.wnd)
+        self.panel = Panel(self.sim, launch["params"])
+        self.show_panel = self.wnd.size[0] >= PANEL_OPEN_FROM
+        self.times = {"frame": 0.0, "sim": 0.0, "draw": 0.0}  # running averages in seconds (the HUD)
+        self.recorder: Recorder | None = None
+        sized = f"; sized for the CPU: {_assignments(self.sized)} (--set wins)" if self.sized else ""
+        print(f"ugpcl-view: {self.scene.name} on {self.runtime.label}{sized}; H shows the panel", file=sys.stderr)
 
     def _key_names(self) -> dict:
         keys = self.wnd.keys
@@ -93,6 +129,7 @@ class ViewerWindow(mglw.WindowConfig):
             keys.PERIOD: ".",
         }
         names.update({getattr(keys, f"NUMBER_{d}"): str(d) for d in range(10)})
+        names.update({keys.F9: "f9", keys.F10: "f10"})
         names.update({getattr(keys, c.upper()): c for c in "abcdefghijklmnopqrstuvwxyz"})
         # pyglet's own codes where moderngl-window's constants differ ([ and ] are ASCII there, + and keypad +/-)
         names.update({ord("["): "[", ord("]"): "]", ord("+"): "+"})
@@ -104,6 +141,7 @@ class ViewerWindow(mglw.WindowConfig):
     # {{{ frame
 
     def on_render(self, time_: float, frame_time: float) -> None:
+        start = time.perf_counter()
         if not self.paused or self.step_once:
             dt = self.sim.default_dt
             if self.view.max_frame_dt is not None and frame_time > 0:
@@ -113,13 +151,106 @@ class ViewerWindow(mglw.WindowConfig):
             self.step_once = False
             if self.watch.due() or self.paused:
                 self.check_divergence()
+        if self.show_panel:  # the HUD splits the frame: wait for the device only while it is shown
+            self.runtime.queue.finish()
+        stepped = time.perf_counter()
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.clear(*self.view.background, 1.0, depth=1.0)
         if not self.diverged:  # a NaN state is not drawn: the message says what happened
             self.view.upload()
             self.view.draw(self.camera)
+        if self.recorder:  # the scene alone: the overlay and the panel come after
+            self.recorder.add(read_pixels(self.wnd.fbo))
+        if self.show_panel:
+            self.ctx.finish()
+        self._average(frame_time, stepped - start, time.perf_counter() - stepped)
         self.overlay.set_lines(self._overlay_lines())
         self.overlay.draw(self.wnd.buffer_size)
+        if self.show_panel:
+            self.draw_panel()
+
+    def _average(self, frame: float, sim: float, draw: float) -> None:
+        for key, value in (("frame", frame), ("sim", sim), ("draw", draw)):
+            old = self.times[key]
+            self.times[key] = value if old == 0.0 else old + SMOOTHING * (value - old)
+
+    def hud_lines(self) -> list[str]:
+        """Frame rate, where a frame's time goes, the device, steps and simulated time."""
+        ms = {key: 1000.0 * value for key, value in self.times.items()}
+        fps = 1000.0 / ms["frame"] if ms["frame"] > 0 else 0.0
+        lines = [
+            f"{fps:5.1f} fps  {ms['frame']:6.1f} ms/frame: sim {ms['sim']:.1f}, draw {ms['draw']:.1f}",
+            f"device: {self.runtime.label}",
+            f"step {self.sim.steps}  sim time {self.sim.time:.2f} s",
+        ]
+        if self.sized:
+            book = self.scene.params()
+            sizes = ", ".join(f"{k}={_show(v)} (book {_show(getattr(book, k))})" for k, v in self.sized.items())
+            lines.append(f"sized for the CPU: {sizes}")
+        return lines
+
+    def draw_panel(self) -> None:
+        """The ImGui window at the right: HUD, apply buttons, one widget per parameter, keys."""
+        width, height = self.wnd.size
+        imgui.get_io().delta_time = max(self.times["frame"], 1e-3)
+        imgui.new_frame()
+        panel_width = min(PANEL_WIDTH, width)
+        imgui.set_next_window_pos((width - panel_width, 0), imgui.Cond_.always)
+        imgui.set_next_window_size((panel_width, height), imgui.Cond_.always)
+        imgui.set_next_window_bg_alpha(0.8)
+        imgui.begin(self.view.title or self.scene.name, flags=imgui.WindowFlags_.no_move)
+        for line in self.hud_lines():
+            imgui.text_wrapped(line)
+        if self.recorder:
+            imgui.text_colored((1.0, 0.3, 0.3, 1.0), f"recording {self.recorder.path}: {self.recorder.frames} frames")
+        imgui.separator()
+        self._draw_apply_buttons()
+        if imgui.collapsing_header("parameters", imgui.TreeNodeFlags_.default_open):
+            longest = max(imgui.calc_text_size(w.name).x for w in self.panel.widgets)
+            imgui.push_item_width(-longest - 2 * imgui.get_style().item_inner_spacing.x)  # every name whole
+            for widget in self.panel.widgets:
+                changed, value = draw_widget(imgui, widget, self.panel.value(widget.name))
+                if widget.name in self.panel.pending:
+                    imgui.same_line()
+                    imgui.text_colored((1.0, 0.8, 0.2, 1.0), "*")
+                if changed:
+                    self.set_param(widget, value)
+            imgui.pop_item_width()
+        if imgui.collapsing_header("keys"):
+            for key, text in key_rows(self.scene):
+                imgui.text_wrapped(f"{key:>6s}  {text}")
+            imgui.text_wrapped(MOUSE_HELP)
+        imgui.end()
+        imgui.render()
+        self.imgui.render(imgui.get_draw_data())
+
+    def _draw_apply_buttons(self) -> None:
+        pending = len(self.panel.pending)
+        imgui.begin_disabled(not pending)
+        if imgui.button(f"reset to apply ({pending})" if pending else "reset to apply"):
+            self.apply_params()
+        imgui.same_line()
+        if imgui.button("revert"):
+            self.panel.revert()
+        imgui.end_disabled()
+        imgui.same_line()
+        if imgui.button("defaults"):
+            self.panel.restore_defaults()
+            self.watch, self.diverged = Watch(self.sim), None
+        if self.panel.error:
+            imgui.text_colored((1.0, 0.4, 0.4, 1.0), self.panel.error)
+
+    def set_param(self, widget, value) -> None:
+        """A widget changed: the panel validates it, applies it (live) or keeps it pending; stderr says which."""
+        if self.panel.set(widget, value):
+            how = "live" if widget.live else "pending: reset to apply"
+            print(f"ugpcl-view: {widget.name} = {_show(self.panel.value(widget.name))} ({how})", file=sys.stderr)
+
+    def apply_params(self) -> None:
+        changes = _assignments(self.panel.pending)
+        if self.panel.apply():
+            self.watch, self.diverged = Watch(self.sim), None
+            print(f"ugpcl-view: reset with {changes}", file=sys.stderr)
 
     def check_divergence(self) -> None:
         """Pause with the message ``ugpcl run`` would print when the state has turned NaN/inf."""
@@ -136,23 +267,45 @@ class ViewerWindow(mglw.WindowConfig):
         if self.diverged:  # short lines: the window may be small
             return ["DIVERGED: paused", "r resets, esc quits", *self.diverged]
         lines = self.view.status() + (["PAUSED (space: run, n: step)"] if self.paused else [])
-        if self.show_help:
-            lines += ["", f"{self.view.title or self.scene.name}: keys"]
-            lines += [f"  {key:>6s}  {text}" for key, text in key_rows(self.scene)]
-            lines += ["  " + MOUSE_HELP]
+        if self.recorder and not self.show_panel:
+            lines.append(f"REC {self.recorder.frames} frames (F9/F10: stop)")
         return lines
 
     def on_resize(self, width: int, height: int) -> None:
         self.camera.aspect = width / max(height, 1)
+        self.imgui.resize(width, height)
 
     # }}}
 
     # {{{ input
 
     def on_key_event(self, key, action, modifiers) -> None:
-        if action != self.wnd.keys.ACTION_PRESS:
+        io = imgui.get_io()
+        keys = self.wnd.keys
+        for mod, held, own in (
+            (imgui.Key.mod_ctrl, modifiers.ctrl, "CTRL"),
+            (imgui.Key.mod_shift, modifiers.shift, "SHIFT"),
+        ):
+            # ctrl+click types a slider's value; the modifier key's own event carries the state before it
+            if key in (getattr(keys, f"LEFT_{own}", None), getattr(keys, f"RIGHT_{own}", None)):
+                held = action == keys.ACTION_PRESS
+            io.add_key_event(mod, bool(held))
+        if self.show_panel and io.want_text_input:  # typing into a field: keys are text, not shortcuts
+            self.imgui.key_event(key, action, modifiers)
             return
-        self.press(self.key_names.get(key))
+        # otherwise ImGui never sees the keys: Tab would move its focus into a slider's text field, and the
+        # scenes' own Tab, arrows and space are theirs
+        if action == self.wnd.keys.ACTION_PRESS:
+            self.press(self.key_names.get(key))
+
+    def on_unicode_char_entered(self, char: str) -> None:
+        self.imgui.unicode_char_entered(char)
+
+    def _panel_has_mouse(self) -> bool:
+        return self.show_panel and imgui.get_io().want_capture_mouse
+
+    def on_mouse_position_event(self, x: int, y: int, dx: int, dy: int) -> None:
+        self.imgui.mouse_position_event(x, y, dx, dy)
 
     def press(self, name: str | None) -> None:
         """Run the action bound to key ``name`` (shared keys first, then the view's)."""
@@ -169,12 +322,19 @@ class ViewerWindow(mglw.WindowConfig):
                 return
 
     def on_mouse_press_event(self, x: int, y: int, button: int) -> None:
+        self.imgui.mouse_press_event(x, y, button)
+        self.in_panel = self._panel_has_mouse()  # a press on the panel is the panel's until released
+        if self.in_panel:
+            return
         self.right_click = button == 2  # until the mouse moves: a right drag orbits instead
         if button == 1:  # a click without a move already paints/emits/pushes in the 2D scenes
             w, h = self.wnd.size
             self.view.on_drag(self.camera, x / w, 1.0 - y / h, 0.0, 0.0)
 
     def on_mouse_drag_event(self, x: int, y: int, dx: int, dy: int) -> None:
+        self.imgui.mouse_drag_event(x, y, dx, dy)
+        if self.in_panel:
+            return
         w, h = self.wnd.size
         self.right_click = False
         if self.wnd.mouse_states.left:
@@ -183,13 +343,19 @@ class ViewerWindow(mglw.WindowConfig):
             self.camera.drag(dx / w * 600, -dy / h * 600)
 
     def on_mouse_release_event(self, x: int, y: int, button: int) -> None:
+        self.imgui.mouse_release_event(x, y, button)
+        if self.in_panel:
+            self.in_panel = False
+            return
         if button == 2 and self.right_click:
             w, h = self.wnd.size
             self.view.on_right_click(self.camera, x / w, 1.0 - y / h)
         self.view.on_release(self.camera)
 
     def on_mouse_scroll_event(self, x_offset: float, y_offset: float) -> None:
-        self.camera.zoom(y_offset)
+        self.imgui.mouse_scroll_event(x_offset, y_offset)
+        if not self._panel_has_mouse():
+            self.camera.zoom(y_offset)
 
     # }}}
 
@@ -206,14 +372,36 @@ class ViewerWindow(mglw.WindowConfig):
         self.watch, self.diverged = Watch(self.sim), None
 
     def screenshot(self) -> None:
-        now = time.time()  # milliseconds in the name: two presses in one second keep both pictures
-        stamp = time.strftime("%Y%m%d-%H%M%S", time.localtime(now)) + f"-{int(now * 1000) % 1000:03d}"
-        path = Path("out") / f"{self.scene.name}-{stamp}.png"
-        save_png(read_pixels(self.wnd.fbo), path)
+        path = Path("out") / f"{self.scene.name}-{_stamp()}.png"
+        with written_whole(path) as partial:  # a reader polling out/ never sees half a PNG
+            save_png(read_pixels(self.wnd.fbo), partial)
         print(f"ugpcl-view: wrote {path}", file=sys.stderr)
 
-    def toggle_help(self) -> None:
-        self.show_help = not self.show_help
+    def toggle_panel(self) -> None:
+        self.show_panel = not self.show_panel
+
+    def toggle_video(self) -> None:
+        self._toggle_recording(".mp4")
+
+    def toggle_frames(self) -> None:
+        self._toggle_recording("")
+
+    def _toggle_recording(self, suffix: str) -> None:
+        """Start recording to out/<scene>-<time><suffix>, or stop the recording under way (either key stops it)."""
+        if self.recorder:
+            self.stop_recording()
+            return
+        self.recorder = Recorder(Path("out") / f"{self.scene.name}-{_stamp()}{suffix}")
+        print(f"ugpcl-view: recording to {self.recorder.path}", file=sys.stderr)
+
+    def stop_recording(self) -> None:
+        recorder, self.recorder = self.recorder, None
+        frames = recorder.close()
+        print(f"ugpcl-view: wrote {recorder.path} ({frames} frames)", file=sys.stderr)
+
+    def on_close(self) -> None:
+        if self.recorder:  # closing the window finishes the recording under way
+            self.stop_recording()
 
     def quit(self) -> None:
         self.wnd.close()
@@ -238,7 +426,7 @@ def main(argv: list[str] | None = None) -> int:
             print(keys_markdown(scene))
             sys.stdout.flush()
             return 0
-        params = scene.params(**parse_sets(scene, args.set or []))
+        sets = parse_sets(scene, args.set or [])
         width, height = parse_size(args.size, "--size")
         if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
             raise NoDisplay(
@@ -246,8 +434,11 @@ def main(argv: list[str] | None = None) -> int:
                 f"under xvfb-run, or render pictures with `ugpcl run {scene.name} --png out.png`"
             )
         runtime = Runtime(args.device)  # OpenCL before the GL window: see ugpcl.runtime.all_devices
+        sized = {} if runtime.is_gpu else {k: v for k, v in scene.interactive.items() if k not in sets}
+        params = scene.params(**sized, **sets)
         resources.check(scene.simulation, params, runtime.device)  # ResourceError is a ValueError: exit 2
-        ViewerWindow.launch = {"scene": scene, "params": params, "seed": args.seed, "runtime": runtime}
+        launch = {"scene": scene, "params": params, "seed": args.seed, "runtime": runtime, "sized": sized}
+        ViewerWindow.launch = launch
         # moderngl-window parses its own flags from sys.argv unless given a (non-empty) list of them
         mglw.run_window_config(ViewerWindow, args=["--size", f"{width}x{height}"])
     except (UsageError, ValueError) as err:
@@ -261,6 +452,16 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         return 130
     return 0
+
+
+def _stamp() -> str:
+    """Local time with milliseconds, for file names: two presses in one second keep both files."""
+    now = time.time()
+    return time.strftime("%Y%m%d-%H%M%S", time.localtime(now)) + f"-{int(now * 1000) % 1000:03d}"
+
+
+def _assignments(values: dict) -> str:
+    return " ".join(f"{k}={_show(v)}" for k, v in values.items())
 
 
 class NoDisplay(RuntimeError):

@@ -64,3 +64,11 @@ def render_png(scene, sim, path, size: tuple[int, int] = (800, 600)) -> np.ndarr
     pixels = render(scene, sim, size)
     save_png(pixels, path)
     return pixels
+
+
+def renderer(scene, sim, size: tuple[int, int] = (800, 600)):
+    """A function that renders ``sim``'s current state each call, through one view and camera for the whole run
+    (``ugpcl run --video/--frames``): a view keeps GL buffers, and a camera the framing, from frame to frame."""
+    view = create_view(scene, context(), sim)
+    camera = view.png_camera()
+    return lambda: render(scene, sim, size, view, camera)

@@ -1,0 +1,88 @@
+"""Recording (viewer/record.py): MP4 through imageio-ffmpeg and PNG sequences, from frames and from
+``ugpcl run --video/--frames`` (offscreen); the files read back with imageio."""
+
+from __future__ import annotations
+
+import imageio.v3 as iio
+import numpy as np
+import pytest
+from helpers import foreground, run_cli
+from PIL import Image
+from ugpcl.viewer.record import Recorder
+from ugpcl.viewer.views import view_class
+
+from ugpcl.scenes import get
+
+
+def moving_square(i: int, size=(65, 49)) -> np.ndarray:
+    """A grey frame with a white square that moves right by 4 pixels a frame (odd sides on purpose)."""
+    w, h = size
+    pixels = np.full((h, w, 3), 60, np.uint8)
+    pixels[16:32, 4 * i : 4 * i + 16] = 255
+    return pixels
+
+
+def test_an_mp4_holds_every_frame_at_its_size(tmp_path):
+    path = tmp_path / "clip.mp4"
+    with Recorder(path) as recorder:
+        for i in range(6):
+            recorder.add(moving_square(i))
+    assert recorder.frames == 6 and not list(tmp_path.glob(".*partial*"))
+    video = iio.imread(path)
+    assert video.shape == (6, 48, 64, 3)  # H.264 wants even sides: the odd last row and column are dropped
+    for i, frame in enumerate(video):
+        expected = moving_square(i)[:48, :64].astype(int)
+        assert np.abs(frame.astype(int) - expected).mean() < 4, f"frame {i} does not show the square where it was"
+
+
+def test_a_png_sequence_holds_every_frame_exactly(tmp_path):
+    with Recorder(tmp_path / "frames") as recorder:
+        for i in range(3):
+            recorder.add(moving_square(i))
+    files = sorted((tmp_path / "frames").iterdir())
+    assert [f.name for f in files] == ["frame-000000.png", "frame-000001.png", "frame-000002.png"]
+    for i, f in enumerate(files):
+        assert np.array_equal(np.asarray(Image.open(f)), moving_square(i))
+
+
+def test_a_failed_recording_leaves_no_video(tmp_path):
+    path = tmp_path / "clip.mp4"
+    with pytest.raises(KeyboardInterrupt), Recorder(path) as recorder:
+        recorder.add(moving_square(0))
+        raise KeyboardInterrupt
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_run_records_a_video_every_k_steps(capsys, tmp_path):
+    video = tmp_path / "boids.mp4"
+    code, text = run_cli(
+        capsys, "run", "boids", "--steps", "20", "--every", "5", "--video", str(video), "--png-size", "160x120",
+        "--set", "max_object_num=256", "--out", str(tmp_path / "boids.npz"), "--quiet",
+    )  # fmt: skip
+    assert code == 0, text
+    assert f"wrote {video} (5 frames)" in text  # steps 0, 5, 10, 15, 20
+    frames = iio.imread(video)
+    assert frames.shape == (5, 120, 160, 3)
+    background = view_class(get("boids")).background
+    assert all(foreground(f, background, 40).mean() > 0.01 for f in frames), "a frame shows no boids"
+    assert np.abs(frames[0].astype(int) - frames[-1]).max() > 40, "the boids did not move between frames"
+
+
+def test_run_writes_frames_whose_last_is_the_png_of_the_run(capsys, tmp_path):
+    folder, png = tmp_path / "frames", tmp_path / "last.png"
+    code, text = run_cli(
+        capsys, "run", "boids", "--steps", "6", "--every", "3", "--frames", str(folder), "--png", str(png),
+        "--png-size", "160x120", "--set", "max_object_num=256", "--out", str(tmp_path / "b.npz"), "--quiet",
+    )  # fmt: skip
+    assert code == 0, text
+    files = sorted(folder.glob("frame-*.png"))
+    assert len(files) == 3 and not list(folder.glob(".*"))
+    assert np.array_equal(np.asarray(Image.open(files[-1]).convert("RGB")), np.asarray(Image.open(png).convert("RGB")))
+
+
+def test_run_refuses_bad_recording_paths_before_running(capsys, tmp_path):
+    code, text = run_cli(capsys, "run", "boids", "--video", str(tmp_path / "x.avi"))
+    assert code == 2 and "--video must end in .mp4" in text
+    (tmp_path / "file").write_text("")
+    code, text = run_cli(capsys, "run", "boids", "--frames", str(tmp_path / "file"))
+    assert code == 2 and "is a file" in text
