@@ -251,7 +251,8 @@ def test_broken_pipe_ends_quietly():
 def test_progress_bar_counts_finished_steps(tmp_path):
     """On a terminal (a pseudo-terminal made by `script`) the bar moves while the run goes on."""
     ugpcl = __import__("pathlib").Path(sys.executable).parent / "ugpcl"
-    cmd = f"{ugpcl} run boids --steps 40 --set max_object_num=2048 --out {tmp_path / 'x.npz'}"
+    # the naive all-pairs kernel at the dense start: about 0.1 s a step on 2 cores, so the bar has time to move
+    cmd = f"{ugpcl} run boids --steps 40 --set max_object_num=4096 variant=naive --out {tmp_path / 'x.npz'}"
     result = subprocess.run(["script", "-qc", cmd, "/dev/null"], capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout
     counts = [int(m) for m in __import__("re").findall(r"\| *(\d+)/40 \[", result.stdout)]

@@ -210,6 +210,12 @@ LIMITS = {
     "distance from eye to every face of room_size >= 0.05 m": ({"eye": (0.0, 0.0499, 0.0)}, {"eye": (0.0, 0.05, 0.0)}),
     "width // divide >= 1": ({"width": 6}, {"width": 7}),
     "height // divide >= 1": ({"height": 6}, {"height": 7}),
+    "chains*samples <= 33554432": ({"chains": 3355444, "samples": 10}, {"chains": 3355443, "samples": 10}),
+    "(L+5)*oversample <= 400 with density=grid": (
+        {"L": 96, "oversample": 4, "density": "grid"},
+        {"L": 95, "oversample": 4, "density": "grid"},
+    ),
+    "batches*limit <= 16777216": ({"batches": 16778, "limit": 1000}, {"batches": 16777, "limit": 1000}),
 }
 """For each rule of every ``Params.limits``: a set that breaks it by one, and the set on its edge, which passes."""
 

@@ -1,4 +1,4 @@
-"""``ugpcl list | info | params | run | bench``: the headless front end.
+"""``ugpcl list | info | params | run | sweep | bench``: the headless front end.
 
 Results go to stdout, logs, progress and errors to stderr. Exit codes: 0 ok; 2 bad usage (unknown scene, bad
 parameter, an output path that cannot be written), found before anything runs; 1 a failure while running (no
@@ -21,7 +21,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
 import numpy as np
@@ -276,9 +276,11 @@ def run_steps(
     every: int | None = None,
     quiet: bool = False,
     checkpoint: tuple[int, Callable[[dict], None]] | None = None,
+    frame: tuple[int, Callable[[], None]] | None = None,
 ) -> dict[str, np.ndarray]:
     """Step ``sim`` and return the final state plus, with ``every``, stacked ``<name>_history`` and ``time``.
-    ``checkpoint=(K, save)`` calls ``save(state)`` after every K-th step. Steps are counted from ``sim.steps``
+    ``checkpoint=(K, save)`` calls ``save(state)`` after every K-th step; ``frame=(K, record)`` calls ``record()``
+    before the first step and after every K-th (``--video``/``--frames``). Steps are counted from ``sim.steps``
     (a resumed run goes on from the checkpoint's count).
 
     ``step`` only enqueues work; a marker after each step tells when it has finished on the device, and the bar
@@ -294,6 +296,8 @@ def run_steps(
 
     if every:
         snapshot()
+    if frame:
+        frame[1]()
     in_flight: deque[cl.Event] = deque()
     complete = cl.command_execution_status.COMPLETE
     with _progress(sim.scene.name if sim.scene else type(sim).__name__, steps, quiet) as progress:
@@ -303,6 +307,8 @@ def run_steps(
                 snapshot()
             elif watch.due():
                 watch.check()
+            if frame and i % frame[0] == 0:
+                frame[1]()
             if checkpoint and sim.steps % checkpoint[0] == 0 and i < steps:
                 checkpoint[1](watch.check())
             in_flight.append(cl.enqueue_marker(queue))
@@ -342,6 +348,16 @@ def output_path(text: str | None, option: str, suffixes: tuple[str, ...]) -> Pat
     except OSError as err:
         raise UsageError(f"{option} {text}: cannot write in {folder} ({err.strerror})") from None
     return path
+
+
+def output_folder(text: str | None, option: str) -> Path | None:
+    """Check a folder for numbered files before the run: not a file, and it exists or can be made, writable."""
+    if text is None:
+        return None
+    if Path(text).exists() and not Path(text).is_dir():
+        raise UsageError(f"{option} {text}: is a file; give a folder")
+    output_path(str(Path(text) / "frame-000000.png"), option, (".png",))
+    return Path(text)
 
 
 @contextmanager
@@ -408,7 +424,7 @@ def cmd_run(args) -> int:
         raise UsageError(f"--seed must be in [0, {MAX_SEED}], got {seed}")
     if args.every is not None and args.every < 1:
         raise UsageError(f"--every must be >= 1, got {args.every}")
-    if args.every and not scene.simulation.history:
+    if args.every and not scene.simulation.history and not (args.video or args.frames):
         raise UsageError(f"--every: scene {scene.name} keeps no history arrays")
     if args.checkpoint_every is not None and args.checkpoint_every < 1:
         raise UsageError(f"--checkpoint-every must be >= 1, got {args.checkpoint_every}")
@@ -425,46 +441,38 @@ def cmd_run(args) -> int:
         (".npz",),
     )
     png = output_path(args.png, "--png", (".png",))
+    recording = output_path(args.video, "--video", (".mp4",)) or output_folder(args.frames, "--frames")
+    if args.video and args.frames:
+        raise UsageError("--video and --frames: give one (a run records one sequence)")
     mesh = output_path(args.mesh, "--mesh", MESH_SUFFIXES)
     size = parse_size(args.png_size)
     # }}}
     runtime = Runtime(args.device)
-    try:
-        resources.check(scene.simulation, params, runtime.device)
-    except resources.ResourceError as err:
-        raise UsageError(str(err)) from None
-    print(f"ugpcl: {scene.name} on {runtime.label}", file=sys.stderr)
-    try:
-        sim = scene.simulation(runtime, params, seed)
-    except ParamError as err:
-        raise UsageError(str(err)) from None
-    sim.scene = scene
+    sim = open_simulation(scene, params, seed, runtime, announce=True)
     if resume is not None:
         sim.restore(resume)
         sim.steps, sim.time = int(resume["steps"]), float(resume["sim_time"])
         print(f"ugpcl: resumed {args.resume} at step {sim.steps}", file=sys.stderr)
 
-    def record(state: dict) -> dict:
-        """What a .npz holds: the state and how it was made."""
-        return {
-            **state,
-            "params": np.array(params.to_json(dt=dt)),
-            "scene": np.array(scene.name),
-            "seed": np.int64(seed),
-            "steps": np.int64(sim.steps),
-            "sim_time": np.float64(sim.time),
-            "device": np.array(runtime.label),
-            "ugpcl_version": np.array(__version__),
-        }
-
     def save_checkpoint(state: dict) -> None:
-        write_npz(checkpoint, record(state))
+        write_npz(checkpoint, record(sim, state, dt))
 
     start = time.perf_counter()
     diverged = None
     try:
         checkpoints = (args.checkpoint_every, save_checkpoint) if args.checkpoint_every else None
-        state = run_steps(sim, args.steps, dt, args.every, args.quiet, checkpoints)
+        history = args.every if scene.simulation.history else None  # --every of a --video alone sets its frames
+        if recording:
+            from .viewer.offscreen import renderer
+            from .viewer.record import Recorder
+        with Recorder(recording) if recording else nullcontext() as recorder:
+            frames = None
+            if recorder:
+                render = renderer(scene, sim, size)
+                frames = (args.every or 1, lambda: recorder.add(render()))
+            state = run_steps(sim, args.steps, dt, history, args.quiet, checkpoints, frames)
+        if recorder:
+            print(f"wrote {recording} ({recorder.frames} frames)")
     except Diverged as err:
         sets = " ".join(args.set or []) or "none (the scene's defaults)"
         diverged = f"{err}; parameters set: {sets}"
@@ -473,24 +481,93 @@ def cmd_run(args) -> int:
         state = {**err.state, "diverged": np.bool_(True)}
     runtime.finish()
     seconds = time.perf_counter() - start
-    write_npz(out, record(state))
+    write_npz(out, record(sim, state, dt))
     print(f"wrote {out} ({args.steps} steps in {seconds:.2f} s): {', '.join(sorted(state))}")
     if diverged:  # the state is written as asked; no picture or mesh of NaN
         print(f"ugpcl: error: {diverged}", file=sys.stderr)
         return RUNTIME_ERROR
     for key, value in sim.stats().items():
         print(f"  {key}: {value}")
+    write_pictures(sim, mesh, png, size, log=print)
+    return 0
+
+
+def open_simulation(scene: Scene, params, seed: int, runtime: Runtime, announce: bool = False) -> Simulation:
+    """The simulation of one run (``ugpcl run``, each ``ugpcl sweep`` task), after checking that the device holds
+    its buffers: UsageError when it does not or when the scene cannot build its state from ``params``."""
+    try:
+        resources.check(scene.simulation, params, runtime.device)
+    except resources.ResourceError as err:
+        raise UsageError(str(err)) from None
+    if announce:
+        print(f"ugpcl: {scene.name} on {runtime.label}", file=sys.stderr)
+    try:
+        sim = scene.simulation(runtime, params, seed)
+    except ParamError as err:
+        raise UsageError(str(err)) from None
+    sim.scene = scene
+    return sim
+
+
+def record(sim: Simulation, state: dict, dt: float) -> dict:
+    """What a .npz holds: the state and how it was made."""
+    return {
+        **state,
+        "params": np.array(sim.params.to_json(dt=dt)),
+        "scene": np.array(sim.scene.name),
+        "seed": np.int64(sim.seed),
+        "steps": np.int64(sim.steps),
+        "sim_time": np.float64(sim.time),
+        "device": np.array(sim.runtime.label),
+        "ugpcl_version": np.array(__version__),
+    }
+
+
+def write_pictures(sim: Simulation, mesh: Path | None, png: Path | None, size: tuple[int, int], log=None) -> None:
+    """The mesh and the PNG of a finished run, each written whole; ``log`` is told each file written."""
     if mesh:
         with written_whole(mesh) as partial:
             sim.export_mesh(partial)
-        print(f"wrote {mesh}")
+        if log:
+            log(f"wrote {mesh}")
     if png:
         from .viewer.offscreen import render_png
 
         with written_whole(png) as partial:
-            render_png(scene, sim, partial, size)
-        print(f"wrote {png}")
-    return 0
+            render_png(sim.scene, sim, partial, size)
+        if log:
+            log(f"wrote {png}")
+
+
+def cmd_sweep(args) -> int:
+    from .sweep import INDEX, parse_grid, parse_seeds, plan, sweep
+
+    scene = scene_named(args.scene)
+    grid = parse_grid(scene, args.grid or [])
+    sets = parse_sets(scene, args.set or [])
+    for name in grid.keys() & sets.keys():
+        raise UsageError(f"{name} is given by both --grid and --set")
+    seeds = parse_seeds(args.seeds)
+    if args.steps < 0:
+        raise UsageError(f"--steps must be >= 0, got {args.steps}")
+    try:
+        dt = check_dt(args.dt, scene.simulation.default_dt)
+    except ValueError as err:
+        raise UsageError(f"--{err}") from None
+    mesh_suffix = f".{args.mesh.lower().lstrip('.')}" if args.mesh else None
+    if mesh_suffix and mesh_suffix not in MESH_SUFFIXES:
+        raise UsageError(f"--mesh must be one of {', '.join(s[1:] for s in MESH_SUFFIXES)}, got {args.mesh!r}")
+    if mesh_suffix and not hasattr(scene.simulation, "export_mesh"):
+        raise UsageError(f"--mesh: scene {scene.name} makes no mesh")
+    out = Path(args.out)
+    output_path(str(out / INDEX), "--out", (".csv",))
+    common = {"steps": args.steps, "dt": dt, "png_size": parse_size(args.png_size), "device": args.device}
+    jobs = plan(scene, grid, sets, seeds, out, args.png, mesh_suffix, **common)
+    where = args.scheduler or "a local cluster"
+    print(f"ugpcl: sweep {scene.name}: {len(jobs)} runs on {where}", file=sys.stderr)
+    counts = sweep(jobs, out, args.scheduler, args.device, args.quiet)
+    print(f"{out / INDEX}: {counts['ok']} ok, {counts['failed']} failed, {counts['skipped']} finished before")
+    return RUNTIME_ERROR if counts["failed"] else 0
 
 
 def _params(scene: Scene, overrides: dict):
@@ -610,7 +687,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--every", type=int, default=None, metavar="K", help="also keep every K-th state as *_history")
     p.add_argument("--out", default=None, help="output .npz (default: out/SCENE.npz)")
     p.add_argument("--png", default=None, help="also render the final state to this PNG (offscreen, EGL)")
-    p.add_argument("--png-size", default="800x600", help="PNG size WxH")
+    p.add_argument("--png-size", default="800x600", help="PNG size WxH (also of --video and --frames frames)")
+    p.add_argument(
+        "--video",
+        default=None,
+        metavar="FILE.mp4",
+        help="record the run offscreen to an MP4: the first state, then every --every K steps (default 1)",
+    )
+    p.add_argument(
+        "--frames", default=None, metavar="DIR", help="as --video, to DIR/frame-000000.png, frame-000001.png ..."
+    )
     p.add_argument(
         "--quiet",
         action="store_true",
@@ -636,6 +722,31 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="when the state turns NaN/inf, still write it (with diverged=True) before exiting 1",
     )
+
+    p = command("sweep", "run a scene over a parameter grid and seeds as Dask tasks", cmd_sweep, [device])
+    p.add_argument("scene", help="a scene of `ugpcl list`")
+    p.add_argument(
+        "--grid",
+        action="append",
+        metavar="NAME=V1,V2",
+        help="a parameter and its values (tuples: V1/V2, each comma-separated); every combination is run",
+    )
+    p.add_argument("--seeds", default="0", help="seeds and ranges: 0-9 or 1,4,7-9")
+    p.add_argument("--out", required=True, metavar="DIR", help="folder for RUN.npz files and index.csv")
+    p.add_argument("--steps", type=int, default=300, help="simulation steps of each run")
+    p.add_argument("--dt", type=float, default=None, help="time step in seconds (default: the scene's own)")
+    p.add_argument("--set", action="extend", nargs="+", metavar="NAME=VALUE", help="parameters every run shares")
+    p.add_argument("--png", action="store_true", help="also render each final state to RUN.png (offscreen, EGL)")
+    p.add_argument("--png-size", default="800x600", help="PNG size WxH")
+    p.add_argument("--mesh", default=None, metavar="EXT", help="also export each run's geometry as RUN.EXT (obj, ply)")
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="a running dask scheduler (tcp://host:port) to run on (default: a local cluster, one worker per GPU "
+        "or two on a CPU device)",
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress bar or progress lines on stderr")
 
     p = command("bench", "time scenes and print throughput tables", cmd_bench, [device])
     p.add_argument("scene", nargs="*", help="copy, peak, launch or chapter stems (none: all)")

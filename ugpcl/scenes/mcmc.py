@@ -48,6 +48,8 @@ PI_POINTS_PER_ITEM = 64
 PI_GROUP_SIZE = 256
 """MonteCarloPi's work-group (tree reduction); halved where the device cannot run it."""
 GROUP_SIZE = 64
+MAX_STATES = 33554432
+"""Most chain states one run keeps (chains x samples, 12 bytes each: 400 MB)."""
 PALETTE = (
     (1.0, 1.0, 1.0),
     (1.0, 0.0, 0.0),
@@ -64,7 +66,11 @@ PALETTE = (
 
 @dataclass(frozen=True)
 class Params(BaseParams):
-    limits = ("chains*samples <= 33554432", "(L+5)*oversample <= 400", "batches*limit <= 16777216")
+    limits = (
+        f"chains*samples <= {MAX_STATES}",
+        "(L+5)*oversample <= 400 with density=grid",
+        "batches*limit <= 16777216",
+    )
 
     mode: str = param("metropolis", choices=("metropolis", "rejection", "pi"))
     """Which of the chapter's samplers runs: Metropolis chains, the rejection sampler, or the pi estimate."""
@@ -110,7 +116,7 @@ class Params(BaseParams):
     rejection_threshold: float = param(0.15, -1.0, 1.0)
     """Keep a candidate if clamp(noise, 0, 1) > this (book: 0.75 class, 0.25 scene: the noise never reaches 0.34,
     so both keep almost nothing; 0.15 keeps about 10%)."""
-    n: int = param(16777216, 1, 1 << 31)
+    n: int = param(16777216, 1, (1 << 31) - 1)
     """Points of the pi estimate (mode=pi)."""
     chains_per_second: float = param(10.0, 0.1, 1e6, live=True)
     """How fast the view reveals chains (book: one per 0.1 s)."""
@@ -118,10 +124,10 @@ class Params(BaseParams):
     """How fast the view reveals rejection batches (book: one per 0.001 s, i.e. one per frame)."""
 
     def check(self) -> None:
-        if self.chains * self.samples > 33554432:
-            raise self.broken("chains*samples <= 33554432", f"{self.chains * self.samples} states")
+        if self.chains * self.samples > MAX_STATES:
+            raise self.broken(f"chains*samples <= {MAX_STATES}", f"{self.chains * self.samples} states")
         if self.density == "grid" and (self.L + 5) * self.oversample > 400:
-            raise self.broken("(L+5)*oversample <= 400")
+            raise self.broken("(L+5)*oversample <= 400 with density=grid")
         if self.batches * self.limit > 16777216:
             raise self.broken("batches*limit <= 16777216", f"{self.batches * self.limit} candidates")
         try:
@@ -624,9 +630,10 @@ def bench(runtime, sizes=None) -> list[dict]:
     burn_in = steps // 10
     rows = []
     for chains in sizes:
+        emitted = min(steps, MAX_STATES // chains)  # the samples buffer holds chains x samples states
         for density in DENSITY_MODES:
             lattice = {"L": 20} if density == "gaussian" else {"L": 30}
-            p = Params(chains=chains, burn_in=burn_in, samples=steps, density=density, **lattice)
+            p = Params(chains=chains, burn_in=emitted // 10, samples=emitted, density=density, **lattice)
             sim = Simulation(runtime, p, seed=0)
             seconds = seconds_per_call(sim.sequence, runtime.queue, min_seconds=0.5, max_calls=5)
             samples = sim.samples_buffer.get()
@@ -636,11 +643,11 @@ def bench(runtime, sizes=None) -> list[dict]:
                     "sampler": "ugpcl Sequence",
                     "density": density,
                     "chains": chains,
-                    "steps": burn_in + steps,
+                    "steps": p.burn_in + emitted,
                     "ms": seconds * 1e3,
-                    "chain-steps/s": chains * (burn_in + steps) / seconds,
+                    "chain-steps/s": chains * (p.burn_in + emitted) / seconds,
                     "tau": tau,
-                    "ESS/s": chains * steps / tau / seconds,
+                    "ESS/s": chains * emitted / tau / seconds,
                 }
             )
     if emcee is not None:
