@@ -309,7 +309,7 @@ def bench(runtime, sizes=None) -> list[dict]:
         lo, hi = np.zeros(dim), np.ones(dim)
         name = "unit square" if dim == 2 else "unit cube"
         size = (1.0, 1.0, 1.0)
-        if r >= HOST_BENCH_MIN_R or sizes:  # the host samplers take minutes below it: the kernel's rows only
+        if r >= HOST_BENCH_MIN_R:  # the host samplers take minutes below it: the kernel's rows only
             start = time.perf_counter()
             points = pd.bridson(lo, hi, r)
             _measure(rows, name, r, "bridson (host)", time.perf_counter() - start, points, lo, hi)
