@@ -26,6 +26,9 @@
 // keeps the code's `>=` (the text says `>`).
 #include "random.h"  // philox4x32_10, uniform01
 
+// No fused a*b+c: GPU compilers contract by default, which moves the noise off its numpy twin by a few 1e-6.
+#pragma OPENCL FP_CONTRACT OFF
+
 #define PURPOSE_STEP_XY 0u  // the Box-Muller uniforms of x and y of step `index`
 #define PURPOSE_STEP_Z 1u   // those of z, then the acceptance uniform
 #define PURPOSE_RESET 2u    // the uniform start point of reset try `index`
