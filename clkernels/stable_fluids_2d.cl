@@ -9,6 +9,8 @@
 //   solver float4 (u, v, density, 1) for the renderer;
 //   prev float4, multiplexed as the book does: xy = velocity source or copy of velocity, z = density source or copy
 //   of density; during the projection x = p and y = div (z kept: later kernels read the leftovers).
+//   divergence, pressure float (fixed only): the projection's div and p, so a Jacobi sweep reads 8 bytes per cell
+//   and writes 4 instead of reading and writing prev's 16; prev.xy ends as (p, div) all the same.
 // Boundary rules (the book's SetBoundary* helpers): a wall cell copies its inner neighbour (the cell one step
 //   inwards, clamp(x, 1, w-2), clamp(y, 1, h-2)); the velocity's wall cell negates the inner cell's normal component
 //   and keeps its own tangential one; a corner is the mean of the two edge cells beside it. "+B(f)" below: the
@@ -25,9 +27,10 @@
 //   DiffuseVelocity      velocity_in, prev.xy -> velocity_out: one Jacobi sweep (host: gs_iterations times)
 //                        +B(Velocity)
 //   ProjectStep1         velocity -> prev = (0, div, prev.z, 0) (own cell of prev, in place) +B(Divergence); p = 0
-//                        everywhere, so B(DivPositive) would change nothing
-//   ProjectStep2         prev_in -> prev_out: one Jacobi sweep of the Poisson equation for p = prev.x +B(DivPositive)
-//   ProjectStep3         velocity -= 0.5*(p(+1) - p(-1))*(w | h) per axis (own cell, in place)
+//                        everywhere, so B(DivPositive) would change nothing; fixed: also divergence = div, pressure = 0
+//   ProjectStep2         book: prev_in -> prev_out, fixed: pressure_in, divergence -> pressure_out: one Jacobi sweep
+//                        of the Poisson equation for p +B(DivPositive)
+//   ProjectStep3         velocity -= 0.5*(p(+1) - p(-1))*(w | h) per axis (own cell, in place); fixed: prev.x = p
 //   SetBoundaryVelocity  after ProjectStep3 (in place: its walls would read cells other work-items write)
 //   SwapVelocity         prev.xy = velocity (a one-way copy despite the name, as the book)
 //   AdvectVelocity       prev.xy -> velocity: back-trace by the cell's own prev.xy, bilinear +B(Velocity)
@@ -42,7 +45,7 @@
 //   the rules on their own (Simulation.set_boundary_*; step() applies them inside the kernels above):
 //   SetBoundaryDensity   density
 //   SetBoundaryDivergence  prev.y (the divergence)
-//   SetBoundaryDivPositive  prev.x (p)
+//   SetBoundaryDivPositive  p: prev.x, or fixed's pressure field between ProjectStep1 and ProjectStep3
 //   The SetBoundary* kernels are one launch of 2*(w-2) + 2*(h-2) + 4 work-items (edges, then corners): an edge
 //   reads its inner cell, a corner the interior cell both its edge neighbours copy, and SetBoundaryVelocity's edges
 //   write only their normal component while its corners read only the edges' tangential ones (float pointers, so no
@@ -50,8 +53,9 @@
 // Build defines: THREAD_X, THREAD_Y = work-group shape of the grid kernels (book: numthreads(32, 32, 1));
 //   BOOK_VARIANT = 1: the original's divergence -0.5*du/w + dv/h (operator precedence) and a back-trace that is
 //   never clamped (its clamp() discards the result); 0: Stam's -0.5*(du/w + dv/h), back-trace clamped to
-//   [0.5, n - 1.5]. The original's divergence corner (0, h-1) reads (1, h-2) instead of (1, h-1) (a typo); the
-//   rule here reads (1, h-2), which (1, h-1) copies, so the typo changes no value in either variant.
+//   [0.5, n - 1.5], the pressure solve in the float divergence and pressure fields. The original's divergence
+//   corner (0, h-1) reads (1, h-2) instead of (1, h-1) (a typo); the rule here reads (1, h-2), which (1, h-1)
+//   copies, so the typo changes no value in either variant.
 // Differences from the book: one Jacobi sweep per launch from a read buffer into a write buffer (the book's in-place
 // Gauss-Seidel races), boundary values computed from the kernel's inputs (the book's in-kernel SetBoundary* calls
 // read neighbours other work-items are writing), global sizes rounded up to the work-group shape and guarded (the
@@ -266,8 +270,15 @@ INLINE float divergence_at(const __global float2* velocity, int x, int y, int w,
 #endif
 }
 
+// fixed: the divergence and p = 0 also go to their own float fields, which the sweeps read (12 bytes per cell, not
+// the 32 of a float4 read and write); ProjectStep3 writes the solved p back into prev.x.
 __kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, 1)))
+#if BOOK_VARIANT
 void ProjectStep1(const __global float2* velocity, __global float4* prev, int w, int h) {
+#else
+void ProjectStep1(const __global float2* velocity, __global float4* prev, __global float* divergence,
+                  __global float* pressure, int w, int h) {
+#endif
     int x = get_global_id(0), y = get_global_id(1);
     float div;
     if (is_wall_group(h)) {  // SetBoundaryDivergence: the divergence of the inner cell
@@ -280,34 +291,60 @@ void ProjectStep1(const __global float2* velocity, __global float4* prev, int w,
     }
     const int i = y * w + x;
     prev[i] = (float4)(0.0f, div, prev[i].z, 0.0f);
+#if !BOOK_VARIANT
+    divergence[i] = div;
+    pressure[i] = 0.0f;
+#endif
 }
 
 // 4. Projection step 2, one Jacobi sweep of the Poisson equation 4p - (sum of the 4 neighbours' p) = div; walls
-// copy the inner cell's new p (SetBoundaryDivPositive).
+// copy the inner cell's new p (SetBoundaryDivPositive). book: p = prev.x, div = prev.y; fixed: the float fields.
+#if BOOK_VARIANT
 INLINE float pressure_at(const __global float4* prev_in, int x, int y, int w) {
     const int i = y * w + x;  // an interior cell: all 4 neighbours exist
     const float sum = prev_in[i - 1].x + prev_in[i + 1].x + prev_in[i - w].x + prev_in[i + w].x;
     return (prev_in[i].y + sum) / 4.0f;
 }
+#else
+INLINE float pressure_at(const __global float* pressure_in, const __global float* divergence, int x, int y, int w) {
+    const int i = y * w + x;  // an interior cell: all 4 neighbours exist
+    const float sum = pressure_in[i - 1] + pressure_in[i + 1] + pressure_in[i - w] + pressure_in[i + w];
+    return (divergence[i] + sum) / 4.0f;  // the book's arithmetic on the same values: bit for bit its p
+}
+#endif
 
 __kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, 1)))
+#if BOOK_VARIANT
 void ProjectStep2(const __global float4* prev_in, __global float4* prev_out, int w, int h) {
+#define PRESSURE_AT(x, y) pressure_at(prev_in, x, y, w)
+#else
+void ProjectStep2(const __global float* pressure_in, __global float* pressure_out, const __global float* divergence,
+                  int w, int h) {
+#define PRESSURE_AT(x, y) pressure_at(pressure_in, divergence, x, y, w)
+#endif
     int x = get_global_id(0), y = get_global_id(1);
     float p;
     if (is_wall_group(h)) {  // SetBoundaryDivPositive: this sweep's p of the inner cell
         if (!wall_item(w, h, &x, &y)) return;
         const int2 in = inner_cell(x, y, w, h);
-        p = wall_copy(x, y, in, pressure_at(prev_in, in.x, in.y, w));
+        p = wall_copy(x, y, in, PRESSURE_AT(in.x, in.y));
     } else {
         if (!is_interior(x, y, w, h)) return;  // padding, or a wall cell (a wall item sets it)
-        p = pressure_at(prev_in, x, y, w);
+        p = PRESSURE_AT(x, y);
     }
     const int i = y * w + x;
+#if BOOK_VARIANT
     prev_out[i] = (float4)(p, prev_in[i].yzw);
+#else
+    pressure_out[i] = p;
+#endif
+#undef PRESSURE_AT
 }
 
-// 5. Projection step 3: subtract the gradient of p (central differences, in cells scaled by the grid size).
+// 5. Projection step 3: subtract the gradient of p (central differences, in cells scaled by the grid size). fixed:
+// p from its float field, copied into prev.x, so prev holds (p, div) afterwards as the book's does.
 __kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, 1)))
+#if BOOK_VARIANT
 void ProjectStep3(__global float2* velocity, const __global float4* prev, int w, int h) {
     CELL_OR_RETURN(w, h)
     float2 v = velocity[i];
@@ -315,6 +352,16 @@ void ProjectStep3(__global float2* velocity, const __global float4* prev, int w,
     v.y -= 0.5f * (ld4(prev, x, y + 1, w, h, false).x - ld4(prev, x, y - 1, w, h, false).x) * (float)h;
     velocity[i] = v;
 }
+#else
+void ProjectStep3(__global float2* velocity, __global float4* prev, const __global float* pressure, int w, int h) {
+    CELL_OR_RETURN(w, h)
+    float2 v = velocity[i];
+    v.x -= 0.5f * (ld1(pressure, x + 1, y, w, h, false) - ld1(pressure, x - 1, y, w, h, false)) * (float)w;
+    v.y -= 0.5f * (ld1(pressure, x, y + 1, w, h, false) - ld1(pressure, x, y - 1, w, h, false)) * (float)h;
+    velocity[i] = v;
+    prev[i].x = pressure[i];
+}
+#endif
 
 // Walls: the normal component is the negated inner one (no flow through the wall), the tangential one is kept
 // (not Stam's copy of the inner tangential component: the book keeps the cell's own). Global >= 2(w-2) + 2(h-2) + 4.
@@ -461,9 +508,10 @@ __kernel void SetBoundaryDivergence(__global float4* prev, int w, int h) {
     set_boundary_copy((__global float*)prev, 4, 1, w, h);
 }
 
-// prev.x (p): copy the inner value (zero normal derivative at the walls); corners average.
-__kernel void SetBoundaryDivPositive(__global float4* prev, int w, int h) {
-    set_boundary_copy((__global float*)prev, 4, 0, w, h);
+// p, every `stride`-th float of `p` (prev.x: 4; fixed's pressure field during a solve: 1): copy the inner value
+// (zero normal derivative at the walls); corners average.
+__kernel void SetBoundaryDivPositive(__global float* p, int stride, int w, int h) {
+    set_boundary_copy(p, stride, 0, w, h);
 }
 
 // }}}

@@ -323,7 +323,8 @@ PRODUCERS = {
     "advect_density": ("density", "set_boundary_density", lambda sim: sim.advect_density(DT)),
     "advect_density_from_ext": ("density", "set_boundary_density", lambda sim: sim.advect_density_from_ext(DT)),
     "project_step1": ("prev", "set_boundary_divergence", lambda sim: sim.project_step1()),
-    "project_step2": ("prev", "set_boundary_div_positive", lambda sim: sim.project_step2(1)),
+    # after ProjectStep1, as step() runs it: fixed sweeps the divergence and pressure fields ProjectStep1 fills
+    "project_step2": ("prev", "set_boundary_div_positive", lambda sim: (sim.project_step1(), sim.project_step2(1))),
 }
 
 
@@ -689,3 +690,9 @@ def test_kernels_on_oclgrind(oclgrind, variant):
         sim.update(stroke="none")
         sim.step()  # the same without AddSource* (AdvectDensityFromExt with no brush)
         assert np.isfinite(sim.state()["density"]).all() and sim.state()["density"].max() > 0
+    sim.project_step1()
+    sim.set_boundary_div_positive()  # fixed: on the pressure field (stride 1)
+    sim.project_step3()
+    sim.set_boundary_div_positive()  # on prev.x (stride 4)
+    sim.set_boundary_divergence()
+    sim.set_boundary_density()

@@ -146,7 +146,8 @@ class Simulation(BaseSimulation):
     def allocations(cls, params: Params) -> list[Allocation]:
         cells = params.grid[0] * params.grid[1]
         floats = {"velocity": 2, "velocity (write)": 2, "density": 1, "density (write)": 1, "prev": 4,
-                  "prev (write)": 4, "source": 4, "solver": 4}  # the fields of _reset  # fmt: skip
+                  "prev (write)": 4, "divergence": 1, "pressure": 1, "pressure (write)": 1, "source": 4,
+                  "solver": 4}  # the fields of _reset  # fmt: skip
         return [Allocation(f"{name} field", cells * 4 * n, "width") for name, n in floats.items()]
 
     def _reset(self) -> None:
@@ -157,6 +158,10 @@ class Simulation(BaseSimulation):
         self.velocity = PingPong.zeros(rt, (*self.shape, 2), np.float32)  # (u, v)
         self.density = PingPong.zeros(rt, self.shape, np.float32)
         self.prev = PingPong.zeros(rt, (*self.shape, 4), np.float32)  # multiplexed: see the .cl header
+        # variant fixed: the pressure solve's own fields (a sweep moves 12 bytes per cell, not prev's 32)
+        self.divergence = rt.zeros(self.shape, np.float32)
+        self.pressure = PingPong.zeros(rt, self.shape, np.float32)
+        self.solving = False  # fixed, between ProjectStep1 and ProjectStep3: p lives in `pressure`, not in prev.x
         self.source = rt.zeros((*self.shape, 4), np.float32)
         self.no_source = rt.zeros((*self.shape, 4), np.float32)  # what AdvectDensityFromExt reads with no brush
         self.solver = rt.zeros((*self.shape, 4), np.float32)
@@ -215,11 +220,12 @@ class Simulation(BaseSimulation):
         kernel, size = self._launches[name]
         kernel(size, self._local, *args)
 
-    def _boundary(self, name: str, field: cla.Array) -> None:
-        """SetBoundary<name> on ``field``: one launch over the 2(w-2) + 2(h-2) edge cells and the 4 corners."""
+    def _boundary(self, name: str, field: cla.Array, *args) -> None:
+        """SetBoundary<name> on ``field`` (``args`` follow it: DivPositive's stride): one launch over the
+        2(w-2) + 2(h-2) edge cells and the 4 corners."""
         if self.params is not self._configured_for:
             self._configure()
-        self._launches[f"SetBoundary{name}"][0](2 * self.w + 2 * self.h - 4, None, field, *self.dims)
+        self._launches[f"SetBoundary{name}"][0](2 * self.w + 2 * self.h - 4, None, field, *args, *self.dims)
 
     # }}}
 
@@ -235,7 +241,9 @@ class Simulation(BaseSimulation):
         self._boundary("Divergence", self.prev.read)
 
     def set_boundary_div_positive(self) -> None:
-        self._boundary("DivPositive", self.prev.read)
+        """SetBoundaryDivPositive on p: prev.x, or the pressure field while a fixed projection runs (see solving)."""
+        p, stride = (self.pressure.read, 1) if self.solving else (self.prev.read, 4)
+        self._boundary("DivPositive", p, np.int32(stride))
 
     # }}}
 
@@ -267,19 +275,32 @@ class Simulation(BaseSimulation):
     def project_step1(self) -> None:
         """ProjectStep1: prev = (0, div, prev.z, 0), the walls' div copied from inside (SetBoundaryDivergence's rule;
         p = 0 everywhere, so SetBoundaryDivPositive's changes nothing)."""
-        self._grid("ProjectStep1", self.velocity.read, self.prev.read, *self.dims)
+        if self.params.variant == "book":
+            self._grid("ProjectStep1", self.velocity.read, self.prev.read, *self.dims)
+        else:
+            self._grid(
+                "ProjectStep1", self.velocity.read, self.prev.read, self.divergence, self.pressure.read, *self.dims
+            )
+            self.solving = True
 
     def project_step2(self, sweeps: int | None = None) -> None:
         """ProjectStep2: ``sweeps`` (default gs_iterations) Jacobi sweeps for p, each setting the walls
-        (SetBoundaryDivPositive's rule, applied by the kernel)."""
-        prev, (w, h) = self.prev, self.dims
+        (SetBoundaryDivPositive's rule, applied by the kernel). fixed: on the divergence and pressure fields
+        ProjectStep1 filled, not on prev."""
+        book, (w, h) = self.params.variant == "book", self.dims
+        p, extra = (self.prev, ()) if book else (self.pressure, (self.divergence,))
         for _ in range(self.params.gs_iterations if sweeps is None else sweeps):
-            self._grid("ProjectStep2", prev.read, prev.write, w, h)
-            prev.swap()
+            self._grid("ProjectStep2", p.read, p.write, *extra, w, h)
+            p.swap()
 
     def project_step3(self) -> None:
-        """ProjectStep3: velocity -= 0.5*grad p*(w, h) (in place, as the book); SetBoundaryVelocity."""
-        self._grid("ProjectStep3", self.velocity.read, self.prev.read, *self.dims)
+        """ProjectStep3: velocity -= 0.5*grad p*(w, h) (in place, as the book); SetBoundaryVelocity.
+        fixed: p from the pressure field, copied into prev.x."""
+        if self.params.variant == "book":
+            self._grid("ProjectStep3", self.velocity.read, self.prev.read, *self.dims)
+        else:
+            self._grid("ProjectStep3", self.velocity.read, self.prev.read, self.pressure.read, *self.dims)
+            self.solving = False
         self.set_boundary_velocity()
 
     def project(self, sweeps: int | None = None) -> None:
@@ -421,10 +442,13 @@ class Simulation(BaseSimulation):
 
     def state(self) -> dict[str, np.ndarray]:
         velocity = self.velocity.read.get()
+        prev = self.prev.read.get()
+        if self.solving:  # mid-projection (fixed): prev as the book's would be, p in x
+            prev[..., 0] = self.pressure.read.get()
         return {
             "velocity": velocity,
             "density": self.density.read.get(),
-            "prev": self.prev.read.get(),
+            "prev": prev,
             "solver": self.solver.get(),
             "source": self.source.get(),
             "divergence": central_divergence(velocity),
@@ -497,7 +521,8 @@ SWEEP_BATCH = 20
 
 JACOBI_BYTES_PER_CELL = 12
 """A Jacobi sweep's least memory traffic per cell: read p and the divergence, write p (4 bytes each); the
-neighbours' p come from cache. The bench's ``% copy bw`` is this traffic's share of the device's copy bandwidth."""
+neighbours' p come from cache. The fixed variant's ProjectStep2 moves just that (the book's float4 prev: 32).
+The bench's ``% copy bw`` is this traffic's share of the device's copy bandwidth."""
 
 
 def bench(runtime, sizes=None) -> list[dict]:
