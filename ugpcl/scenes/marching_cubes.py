@@ -382,5 +382,6 @@ SCENES = [
         "GPU marching cubes: the twisting kaiware sprout built from distance functions (vol.1 ch.7, Fig 7.6)",
         defaults={"segment_num": 64, "shape": "kaiware", "diffuse_color": (0.3001, 0.5956, 0.2759), "metallic": 0.5},
         preview={"steps": 10},
+        interactive={"segment_num": 40},
     ),
 ]

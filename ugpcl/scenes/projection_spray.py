@@ -663,6 +663,7 @@ SCENES = [
         Simulation,
         "Projection spray: a spray light paints the sample's cube and sphere as they turn (vol.1 ch.10)",
         preview={"steps": 240, "tex": 512, "depth_res": 512},
+        interactive={"tex": 384, "depth_res": 256},
     ),
     Scene(
         "projection_spray_stencil",
@@ -670,6 +671,7 @@ SCENES = [
         "Projection spray through a stencil plate: the star cut-out is painted on the wall behind (vol.1 ch.10)",
         defaults={"preset": "stencil", "aim": "fixed", "rotation_speed": 0.0},
         preview={"steps": 90, "tex": 512, "depth_res": 512},
+        interactive={"tex": 384, "depth_res": 256},
     ),
     Scene(
         "projection_spray_figure",
@@ -684,5 +686,6 @@ SCENES = [
             "clear_color": (0.85, 0.85, 0.85, 1.0),
         },
         preview={"steps": 480, "tex": 1024, "depth_res": 512},
+        interactive={"tex": 512, "depth_res": 256},
     ),
 ]

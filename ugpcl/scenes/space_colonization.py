@@ -631,6 +631,7 @@ SCENES = [
         Simulation,
         "GPU space colonization: a tree grows through a sphere of attraction points (vol.4 ch.1)",
         preview={"steps": 240},
+        interactive={"side": 20},
     ),
     Scene(
         "space_colonization_tubes",
@@ -638,5 +639,6 @@ SCENES = [
         "The same tree drawn as capsules by a geometry shader (vol.4 ch.1, TubularEdge scene)",
         {"render": "tubes"},
         preview={"steps": 240},
+        interactive={"side": 20},
     ),
 ]

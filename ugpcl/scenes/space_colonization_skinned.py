@@ -217,5 +217,6 @@ SCENES = [
         # character, scaled to this 1.8-unit figure
         defaults={"influence_distance": 1.91, "growth_distance": 0.573, "kill_distance": 0.398, "tube_radius": 0.0053},
         preview={"steps": 300},
+        interactive={"resolution": 80},
     ),
 ]

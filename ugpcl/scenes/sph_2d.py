@@ -453,6 +453,8 @@ SCENES = [
         # a dam break 15 s later: the water has settled on the floor (the disc of the book's start needs 8192
         # particles to fill the floor and keeps sloshing longer)
         preview={"steps": 900, "particle_num": 4096, "ball_radius": 3.5, "start": "dam_break", "search": "grid"},
+        # a smaller disc at the spacing of the book's 8192 particles in radius 5
+        interactive={"particle_num": 4096, "ball_radius": 3.5, "search": "grid"},
     ),
     Scene(
         "sph_2d_code_defaults",
@@ -460,5 +462,7 @@ SCENES = [
         "SPH fluid 2D with the code defaults of listing 5.1 (1 x 1 box, h = 0.012) (vol.1 ch.5)",
         defaults=CODE_DEFAULTS,
         preview={"steps": 120, "search": "grid"},
+        # radius 0.1 * sqrt(2048 / 8192): the spacing of the code's 8192
+        interactive={"particle_num": 2048, "ball_radius": 0.05, "search": "grid"},
     ),
 ]

@@ -485,5 +485,6 @@ SCENES = [
         SCENE_DEFAULTS,
         view="View",
         preview={"steps": 120},
+        interactive={"width": 40, "height": 40, "depth": 40},
     )
 ]

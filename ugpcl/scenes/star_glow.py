@@ -512,5 +512,6 @@ SCENES = [
             "num_of_streak": 5,
         },
         preview=PREVIEW,
+        interactive={"width": 480, "height": 270},
     )
 ]

@@ -1,0 +1,45 @@
+"""``Scene.interactive``: the sizes the viewer starts a scene at on a CPU device. Each override is a valid parameter
+that changes its default, and every scene too slow at its book size on PoCL has them. How fast they step is measured
+by benches, not here (a timed test would fail on a busy machine): ~50 ms per step on this 2-core PoCL machine when
+they were chosen."""
+
+from __future__ import annotations
+
+import pytest
+
+from ugpcl.scenes import scenes
+
+SIZED = (
+    "boids",
+    "marching_cubes_kaiware",
+    "projection_spray",
+    "projection_spray_figure",
+    "projection_spray_stencil",
+    "space_colonization",
+    "space_colonization_skinned",
+    "space_colonization_tubes",
+    "sph_2d",
+    "sph_2d_code_defaults",
+    "stable_fluids_3d",
+    "star_glow",
+)
+"""Scenes whose book sizes step too slowly on PoCL for a window (seconds, for the slowest)."""
+
+
+@pytest.mark.parametrize("name", sorted(scenes()))
+def test_overrides_are_valid_params_that_change_a_default(name):
+    scene = scenes()[name]
+    sized, book = scene.params(**scene.interactive), scene.params()
+    for key, value in scene.interactive.items():
+        assert getattr(sized, key) == value, f"{name}: {key} not applied"
+        assert getattr(book, key) != value, f"{name}: interactive {key}={value!r} is already the default"
+
+
+@pytest.mark.parametrize("name", SIZED)
+def test_scenes_too_slow_at_book_size_have_cpu_sizes_that_run(runtime, name):
+    scene = scenes()[name]
+    assert scene.interactive, f"{name} has no interactive sizes"
+    sim = scene.create(runtime, 0, **scene.interactive)
+    sim.step()
+    runtime.finish()
+    assert sim.steps == 1
