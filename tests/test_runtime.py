@@ -93,3 +93,18 @@ def test_params_validate_and_coerce():
         Example(mode="c")
     table = {row["name"]: row for row in Example.table()}
     assert table["count"]["range"] == "in [1, 10]" and table["count"]["meaning"] == "How many."
+
+
+def test_zeros_fills_every_piece_of_struct_arrays(runtime, monkeypatch):
+    """Runtime.zeros fills in pieces (NVIDIA's large fills go through a kernel that cannot map struct dtypes):
+    with 1 KiB pieces, a 76-byte struct array of 100 items comes back all zero over a buffer that held ones."""
+    import numpy as np
+
+    import ugpcl.runtime
+
+    dtype = np.dtype([("position", "<f4", (3, 3)), ("normal", "<f4", (3, 3)), ("cell", "<u4")])
+    dirty = runtime.to_device(np.frombuffer(np.full(100 * dtype.itemsize, 0xFF, np.uint8).tobytes(), dtype))
+    del dirty  # its memory is likely reused by the next allocation: zeros must not rely on fresh memory
+    monkeypatch.setattr(ugpcl.runtime, "ZERO_FILL_PIECE", 1024)
+    array = runtime.zeros(100, dtype)
+    assert array.get().tobytes() == bytes(100 * dtype.itemsize)

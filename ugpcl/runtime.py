@@ -204,6 +204,10 @@ def _format_define(value) -> str:
     return str(value)
 
 
+ZERO_FILL_PIECE = 1 << 30
+"""Bytes per enqueue_fill_buffer in Runtime.zeros (below NVIDIA's 2 GiB fill limit)."""
+
+
 class Runtime:
     """A context and an in-order queue on one device, plus the program cache."""
 
@@ -292,8 +296,14 @@ class Runtime:
         return cla.to_device(self.queue, np.ascontiguousarray(array))
 
     def zeros(self, shape, dtype) -> cla.Array:
+        """A zero-filled array, filled in pieces below 2 GiB: pyopencl fills a larger one on NVIDIA with a kernel
+        (its way round an NVIDIA fill bug) that cannot take struct dtypes such as marching cubes' triangles."""
         self._check_size(shape, dtype)
-        return cla.zeros(self.queue, shape, dtype)
+        array = cla.empty(self.queue, shape, dtype)
+        for start in range(0, array.nbytes, ZERO_FILL_PIECE):
+            size = min(ZERO_FILL_PIECE, array.nbytes - start)
+            cl.enqueue_fill_buffer(self.queue, array.base_data, np.int8(0), start, size)
+        return array
 
     def empty(self, shape, dtype) -> cla.Array:
         self._check_size(shape, dtype)
