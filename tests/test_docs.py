@@ -3,14 +3,34 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
+from helpers import foreground
+from PIL import Image
 
-from ugpcl.docs import tables
+from ugpcl.docs import PREVIEW_SIZE, ROOT, tables
 from ugpcl.geometry.mesh import Mesh
 from ugpcl.geometry.mesh_io import read_ply, write_mesh
+from ugpcl.scenes import scenes
 
 
 def test_generated_tables_are_up_to_date(capsys):
     assert tables(check=True) == 0, capsys.readouterr().out
+
+
+@pytest.mark.parametrize("name", list(scenes()))
+def test_preview_picture_shows_the_scene(name):
+    """docs/img/<scene>.png (make png) is there at the preview size and is not an empty frame: more than 0.3 % of
+    its pixels differ from its most common colour, which is the background wherever a picture is mostly empty
+    (the L-system's one-pixel lines on white, the sparsest picture, cover 0.5 %)."""
+    path = ROOT / "docs" / "img" / f"{name}.png"
+    assert path.exists(), f"{path.name} missing: run make png"
+    with Image.open(path) as image:
+        assert image.size == PREVIEW_SIZE, f"{path.name} is {image.size}, run make png"
+        pixels = np.asarray(image.convert("RGB"))
+    colours, counts = np.unique(pixels.reshape(-1, 3), axis=0, return_counts=True)
+    background = colours[counts.argmax()]
+    share = foreground(pixels, background / 255.0).mean()
+    assert share > 0.003, f"{path.name}: only {share:.1%} of the pixels differ from the background {background}"
 
 
 def test_mesh_files_round_trip(tmp_path):

@@ -5,7 +5,8 @@
     python -m ugpcl.docs images [SCENE ...]   render docs/img/<scene>.png for every (or the named) scene (make png)
 
 A block is the text between ``<!-- BEGIN generated:KIND [SCENE] -->`` and ``<!-- END generated -->``;
-KIND is ``scenes`` (the table of every scene), ``keys`` (one scene's keys), ``all-keys`` or ``params``.
+KIND is ``scenes`` (the table of every scene), ``gallery`` (a thumbnail of each chapter's first scene),
+``keys`` (one scene's keys), ``all-keys`` or ``params``.
 """
 
 from __future__ import annotations
@@ -19,6 +20,8 @@ from .scenes import get, scenes
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs" / "chapters").glob("*.md"))]
+PREVIEW_SIZE = (1280, 720)
+"""Width and height of docs/img/<scene>.png (16:9, the size the README gallery and chapter pages show)."""
 BLOCK = re.compile(r"(<!-- BEGIN generated:([\w-]+)(?: (\w+))? -->\n)(.*?)(<!-- END generated -->)", re.S)
 
 
@@ -49,6 +52,30 @@ def scenes_table(relative_to: Path) -> str:
         link = f"[{scene.stem}]({Path(*_relative(doc, relative_to))})" if doc else scene.stem
         rows.append({"scene": f"`{name}`", "what you see": scene.summary, "chapter": link})
     return markdown_table(rows)
+
+
+GALLERY_COLUMNS = 4
+GALLERY_WIDTH = 220
+"""Thumbnails per row and their width in pixels: four fit GitHub's README column."""
+
+
+def gallery(relative_to: Path) -> str:
+    """A table of thumbnails, one per chapter page in page order (the page's first scene), each linking to its page."""
+    firsts: dict[Path, str] = {}
+    for name, scene in scenes().items():
+        doc = chapter_doc(scene)
+        if doc:
+            firsts.setdefault(doc, name)
+    cells = []
+    for doc, name in sorted(firsts.items()):
+        page = Path(*_relative(doc, relative_to)).as_posix()
+        image = Path(*_relative(ROOT / "docs" / "img" / f"{name}.png", relative_to)).as_posix()
+        title = doc.read_text().splitlines()[0].lstrip("# ")
+        cells.append(f'[<img src="{image}" width="{GALLERY_WIDTH}" alt="{name}">]({page})<br>[{title}]({page})')
+    cells += [""] * (-len(cells) % GALLERY_COLUMNS)
+    rows = [cells[i : i + GALLERY_COLUMNS] for i in range(0, len(cells), GALLERY_COLUMNS)]
+    lines = ["|" + " |" * GALLERY_COLUMNS, "|" + "---|" * GALLERY_COLUMNS]
+    return "\n".join(lines + ["| " + " | ".join(row) + " |" for row in rows])
 
 
 def _relative(path: Path, start: Path) -> tuple[str, ...]:
@@ -87,6 +114,8 @@ def params_table(name: str) -> str:
 def render_block(kind: str, scene: str | None, path: Path) -> str:
     if kind == "scenes":
         return scenes_table(path.parent)
+    if kind == "gallery":
+        return gallery(path.parent)
     if kind == "all-keys":
         return all_keys()
     if kind == "keys":
@@ -131,7 +160,7 @@ def images(names: list[str] | None = None) -> int:
         sim = scene.create(runtime, 0, **preview)
         for _ in range(steps):
             sim.step()
-        render_png(scene, sim, out / f"{name}.png", (800, 450))
+        render_png(scene, sim, out / f"{name}.png", PREVIEW_SIZE)
         rows.append({"scene": name, "steps": steps, "overrides": preview or "-", "picture": f"docs/img/{name}.png"})
         print(f"wrote docs/img/{name}.png", file=sys.stderr)
     print(format_table(rows))

@@ -399,7 +399,8 @@ SCENES = [
         Simulation,
         "Grass shader: a geometry shader grows a blade on every triangle of 10x10 planes (vol.1 ch.6)",
         view="GrassView",
-        preview={"steps": 1, "start_time": 30.0},  # sin(30/20) ~ 1: the wind's full lean
+        # sin(30/20) ~ 1: the wind's full lean; 6x6 planes: the whole lawn with its edges fits the book's camera
+        preview={"steps": 1, "start_time": 30.0, "planes": (6, 6)},
     ),
     Scene(
         "grass_pyramid",

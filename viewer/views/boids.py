@@ -45,7 +45,7 @@ class View(BaseView):
 
     def png_camera(self):
         # the book's camera sits inside the flock; a picture shows more from outside the 32^3 box
-        return OrbitCamera(target=(0.0, 0.0, 0.0), distance=46.0, yaw=-30.0, pitch=16.0)
+        return OrbitCamera(target=(0.0, 0.0, 0.0), distance=62.0, yaw=-30.0, pitch=15.0)
 
     def upload(self) -> None:
         data = self.sim.boids()

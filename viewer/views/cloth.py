@@ -127,8 +127,8 @@ class View(BaseView):
         return OrbitCamera(target=(0.0, 0.0, 0.0), distance=10.0)  # book: camera at (0, 0, -10), FOV 60
 
     def png_camera(self):
-        # from the front-left and above, nearer than the book's camera: the drape round the sphere shows in depth
-        return OrbitCamera(target=(0.0, 0.2, -1.0), distance=5.2, yaw=-35.0, pitch=12.0)
+        # from the side, where the sphere under the drape shows (from the front the sheet hides it)
+        return OrbitCamera(target=(0.35, 0.2, -0.8), distance=4.6, yaw=-65.0, pitch=6.0)
 
     def draw(self, camera) -> None:
         self.ctx.enable(moderngl.DEPTH_TEST)
