@@ -43,6 +43,19 @@ def xdotool(env, *args) -> str:
     return subprocess.run(["xdotool", *args], env=env, capture_output=True, text=True, timeout=30).stdout.strip()
 
 
+def screenshot(env, tmp_path, scene: str) -> np.ndarray:
+    """Press S and read the screenshot the window writes to out/<scene>-<time>.png (waiting for it)."""
+    xdotool(env, "key", "s")
+    shots = wait_for((tmp_path / "out", f"{scene}-*.png"))
+    assert shots, "the S key wrote no screenshot"
+    return np.asarray(Image.open(shots[-1]).convert("RGB"))
+
+
+def quit_cleanly(env, app) -> None:
+    xdotool(env, "key", "Escape")
+    assert app.wait(timeout=30) == 0, "Esc did not close the window cleanly"
+
+
 @pytest.mark.gl
 def test_view_opens_a_window_and_obeys_keys(display, tmp_path):
     env = {**os.environ, "DISPLAY": display}
@@ -63,19 +76,12 @@ def test_view_opens_a_window_and_obeys_keys(display, tmp_path):
         xdotool(env, "key", "h")  # help overlay
         xdotool(env, "key", "space")  # pause
         time.sleep(1.0)
-        xdotool(env, "key", "s")  # screenshot
-        deadline = time.time() + 30
-        while time.time() < deadline and not list((tmp_path / "out").glob("boids-*.png")):
-            time.sleep(0.2)
-        shots = list((tmp_path / "out").glob("boids-*.png"))
-        assert shots, "the S key wrote no screenshot"
-        xdotool(env, "key", "Escape")
-        assert app.wait(timeout=30) == 0, "Esc did not close the window cleanly"
+        pixels = screenshot(env, tmp_path, "boids")
+        quit_cleanly(env, app)
     finally:
         if app.poll() is None:
             app.kill()
         _, err = app.communicate()
-    pixels = np.asarray(Image.open(shots[0]).convert("RGB"))
     assert pixels.shape == (240, 320, 3)
     assert foreground(pixels, (0.192, 0.302, 0.475)).mean() > 0.05, "the screenshot shows no boids or overlay"
     assert "wrote out/boids-" in err
@@ -138,19 +144,14 @@ def test_view_pauses_with_a_message_when_the_state_diverges(display, tmp_path):
         window = xdotool(env, "search", "--sync", "--onlyvisible", "--name", "ugpcl").splitlines()[0]
         xdotool(env, "windowfocus", "--sync", window)
         time.sleep(4.0)  # the watch reads the state back every CHECK_SECONDS (2 s)
-        xdotool(env, "key", "s")
-        deadline = time.time() + 30
-        while time.time() < deadline and not list((tmp_path / "out").glob("cloth-*.png")):
-            time.sleep(0.2)
-        xdotool(env, "key", "Escape")
-        assert app.wait(timeout=30) == 0
+        shot = screenshot(env, tmp_path, "cloth")
+        quit_cleanly(env, app)
     finally:
         if app.poll() is None:
             app.kill()
         _, err = app.communicate()
     lines = [line for line in err.splitlines() if "diverged" in line]
     assert len(lines) == 1 and "pos" in lines[0] and "stiffness=1e+20" in lines[0], err
-    shot = np.asarray(Image.open(next((tmp_path / "out").glob("cloth-*.png"))).convert("RGB"))
     drawn = foreground(shot, view_class(scenes()["cloth"]).background)
     assert drawn[:120, :200].mean() > 0.5, "no message panel at the top left"
     assert drawn[170:].mean() < 0.02, "something besides the message was drawn"
@@ -173,17 +174,12 @@ def test_ear_clipping_draws_a_ring_with_left_clicks_and_closes_it_with_a_right_c
             time.sleep(0.3)
         xdotool(env, "mousemove", "--window", window, "160", "200", "click", "3")
         time.sleep(1.0)
-        xdotool(env, "key", "s")
-        deadline = time.time() + 30
-        while time.time() < deadline and not list((tmp_path / "out").glob("ear_clipping-*.png")):
-            time.sleep(0.2)
-        xdotool(env, "key", "Escape")
-        assert app.wait(timeout=30) == 0
+        shot = screenshot(env, tmp_path, "ear_clipping")
+        quit_cleanly(env, app)
     finally:
         if app.poll() is None:
             app.kill()
         app.communicate()
-    shot = np.asarray(Image.open(next((tmp_path / "out").glob("ear_clipping-*.png"))).convert("RGB"))
     inside = foreground(shot[130:160, 145:175], (0.0, 0.0, 0.0))  # around the triangle's centroid (160, 140)
     assert inside.mean() > 0.9, "the closed ring was not filled"
 
