@@ -423,17 +423,27 @@ class Simulation(BaseSimulation):
         block[52:57] = p.emission, p.spray_range, dt, p.occlusion_sharpness, p.occlusion_bias
         self.uniforms[k].set(block)
 
-    def spray_pass(self, name: str, k: int, tiles, count: int) -> None:
-        """SprayDraw (into the paint) or SprayGuide (into the guide) over ``count`` tiles of drawable k."""
-        p, tex = self.params, self.textures[k]
-        target = tex["paint"] if name == "SprayDraw" else tex["guide"]
+    def _over_tiles(self, name: str, tiles, count: int, *args) -> None:
+        """Launch ``name`` with one work-group per tile of the list ``tiles`` (its first ``count``), then ``args``."""
+        tex = np.int32(self.params.tex)
         self.program.kernel(name)(
             (count * TILE * TILE,),
             (TILE * TILE,),  # one group per tile; a fixed size also spares PoCL a kernel build per global size
             tiles,
             np.int32(self.tiles_x),
-            np.int32(p.tex),
-            np.int32(p.tex),
+            tex,
+            tex,
+            *args,
+        )
+
+    def spray_pass(self, name: str, k: int, tiles, count: int) -> None:
+        """SprayDraw (into the paint) or SprayGuide (into the guide) over ``count`` tiles of drawable k."""
+        p, tex = self.params, self.textures[k]
+        target = tex["paint"] if name == "SprayDraw" else tex["guide"]
+        self._over_tiles(
+            name,
+            tiles,
+            count,
             tex["pos_tex"],
             tex["nrm_tex"],
             self.shape,
@@ -447,13 +457,10 @@ class Simulation(BaseSimulation):
     def edge_thicken(self, k: int, source: str, target: str, tiles, count: int) -> None:
         """EdgeThicken: ``source`` dilated into the gutters -> ``target`` on ``count`` tiles of drawable k."""
         p, tex = self.params, self.textures[k]
-        self.program.kernel("EdgeThicken")(
-            (count * TILE * TILE,),
-            (TILE * TILE,),  # one group per tile; a fixed size also spares PoCL a kernel build per global size
+        self._over_tiles(
+            "EdgeThicken",
             tiles,
-            np.int32(self.tiles_x),
-            np.int32(p.tex),
-            np.int32(p.tex),
+            count,
             tex["pos_tex"],
             np.int32(p.edge_texels),
             tex[source],
