@@ -12,6 +12,10 @@
 //   2b. ScanBlocks, AddBlockOffsets  cell_ntri -> cell_off[N^3]: exclusive prefix sum (per work-group in __local
 //                               memory, block sums scanned recursively by the host)
 //   2c. GenerateTriangles    field, cell_ntri, cell_off -> triangles[cell_off[cell] ...]: output in cell order
+// CPU devices (PoCL) run SampleField_cpu, PolygonizeAppend_cpu, ClassifyCells_cpu and GenerateTriangles_cpu instead:
+// the same work for a run of CPU_LANES cells (grid points) along x per work-item in the lanes of float8 vectors, on a
+// 3-D NDRange (no integer division per cell), so PoCL calls its vectorised exp/log/sqrt and skips eight empty cells
+// with one test (its work-group vectoriser leaves the scalar kernels' libm calls and table loops scalar).
 // Build defines: SCAN_BLOCK_SIZE = work-group size of ScanBlocks (a power of two; 256); SHAPE = SHAPE_SPHERES (0) or
 //   SHAPE_KAIWARE (1): the field (a define: a program holds one field's code and tests no shape per sample).
 // Arguments shared by the field and normal code: N (book: _SegmentNum), radius.xyz = the three
@@ -111,6 +115,28 @@ inline float Sample(float gx, float gy, float gz, int N, float4 radius, float tw
 }
 
 inline float sample_at(float3 g, int N, float4 radius, float twist) { return Sample(g.x, g.y, g.z, N, radius, twist); }
+
+// CPU_LANES grid points along x in the lanes of a float8 (SampleField_cpu), the spheres only: the same arithmetic in
+// the same order as sphere_term / sample_spheres / Sample, so the lanes equal the scalar kernel up to the rounding of
+// PoCL's vector exp and log.
+#define CPU_LANES 8
+inline float8 sphere_term8(float8 x, float y, float z, float centre_y, float r) {
+    const float8 dx = x - 0.5f;
+    const float dy = y - centre_y, dz = z - 0.5f;
+    return exp(SMOOTH_MAX_K * (0.5f - (sqrt(dx * dx + dy * dy + dz * dz) - r)));
+}
+
+inline float8 Sample8(float8 gx, float gy, float gz, int N, float4 r) {
+    const float n = (float)N;
+    const float8 x = gx / n;
+    const float y = gy / n, z = gz / n;
+    const float8 sum = sphere_term8(x, y, z, 0.25f, r.x) + sphere_term8(x, y, z, 0.5f, r.y) +
+                       sphere_term8(x, y, z, 0.75f, r.z);
+    const float8 result = log(1.0f + sum) / SMOOTH_MAX_K;
+    const bool row_border = gy <= 1.0f || gz <= 1.0f || gy >= n - 1.0f || gz >= n - 1.0f;
+    const int8 border = (gx <= 1.0f) | (gx >= n - 1.0f) | (int8)(row_border ? -1 : 0);
+    return select(result, (float8)(0.0f), border);
+}
 
 // }}}
 
@@ -222,9 +248,47 @@ __kernel void SampleField(__global float* field, FIELD_ARGS) {
     field[x + (N + 1) * (y + (N + 1) * z)] = Sample((float)x, (float)y, (float)z, N, radius, twist);
 }
 
+// CPU devices, the spheres: CPU_LANES points of a row per work-item (x0 = CPU_LANES * id), the last run of a row
+// stored lane by lane (N + 1 is rarely a multiple of 8).
+__kernel void SampleField_cpu(__global float* field, FIELD_ARGS) {
+    const int x0 = get_global_id(0) * CPU_LANES, y = get_global_id(1), z = get_global_id(2);
+    if (x0 > N) return;
+    const float8 gx = (float8)(0.0f, 1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f, 7.0f) + (float)x0;
+    __global float* row = field + (N + 1) * (y + (N + 1) * z);
+#if SHAPE == SHAPE_SPHERES
+    const float8 v = Sample8(gx, (float)y, (float)z, N, radius);
+    if (x0 + CPU_LANES <= N + 1) {
+        vstore8(v, 0, row + x0);
+        return;
+    }
+    float lanes[CPU_LANES];
+    vstore8(v, 0, lanes);
+    for (int l = 0; x0 + l <= N; l++) row[x0 + l] = lanes[l];
+#else
+    for (int l = 0; l < CPU_LANES && x0 + l <= N; l++) row[x0 + l] = Sample((float)(x0 + l), (float)y, (float)z, N, radius, twist);
+#endif
+}
+
 // }}}
 
 // {{{ 2. append path (one work-item per cell = one GS invocation per point of the book's mesh)
+
+// Append the triangles of cell c (case flag_index, corner values value) to the pool.
+inline void append_cell(const __global float* field, float threshold, int normals, FIELD_ARGS,
+                        __global McTriangle* triangles, volatile __global int* counter, int capacity, int3 c,
+                        int flag_index, const float value[8]) {
+    const int count = case_triangles(flag_index);
+    if (count == 0) return;  // book: edgeFlags == 0: entirely inside or outside
+    float3 vertex[12], normal[12];
+    cell_edges(field, c, flag_index, value, threshold, normals, N, radius, twist, vertex, normal);
+    const uint cell = c.x + N * (c.y + N * c.z);
+    for (int i = 0; i < count; i++) {
+        // pool_append: atomic_inc returns the old count = this triangle's slot; at capacity it undoes the
+        // increment and counts the refusal, so the host sees count == capacity and refused = what did not fit
+        int slot = pool_append(counter, capacity);
+        if (slot >= 0) store_triangle(&triangles[slot], flag_index, i, vertex, normal, N, cell);
+    }
+}
 
 __kernel void PolygonizeAppend(const __global float* field, float threshold, int normals, FIELD_ARGS,
                                __global McTriangle* triangles, volatile __global int* counter, int capacity) {
@@ -233,15 +297,55 @@ __kernel void PolygonizeAppend(const __global float* field, float threshold, int
     const int3 c = (int3)(cell % N, (cell / N) % N, cell / (N * N));
     float value[8];
     const int flag_index = cell_case(field, N, c, threshold, value);
-    const int count = case_triangles(flag_index);
-    if (count == 0) return;  // book: edgeFlags == 0: entirely inside or outside
-    float3 vertex[12], normal[12];
-    cell_edges(field, c, flag_index, value, threshold, normals, N, radius, twist, vertex, normal);
-    for (int i = 0; i < count; i++) {
-        // pool_append: atomic_inc returns the old count = this triangle's slot; at capacity it undoes the
-        // increment and counts the refusal, so the host sees count == capacity and refused = what did not fit
-        int slot = pool_append(counter, capacity);
-        if (slot >= 0) store_triangle(&triangles[slot], flag_index, i, vertex, normal, N, (uint)cell);
+    append_cell(field, threshold, normals, N, radius, twist, triangles, counter, capacity, c, flag_index, value);
+}
+
+// The cases of cells (x0 .. x0 + 7, y, z) in the lanes of an int8: corner k of all eight is one vload8 of its row.
+// Needs x0 + CPU_LANES <= N (the last corner read is x0 + 8 <= N, inside the row of N + 1 points).
+inline int8 cell_cases8(const __global float* field, int N, int x0, int y, int z, float threshold) {
+    int8 flags = (int8)(0);
+    for (int k = 0; k < 8; k++) {
+        const float8 v = vload8(0, &FIELD(x0 + vertexOffset[k][0], y + vertexOffset[k][1], z + vertexOffset[k][2]));
+        flags |= select((int8)(0), (int8)(1 << k), v <= threshold);
+    }
+    return flags;
+}
+
+// The cases of the run of cells from (x0, y, z): vector loads for a whole run, the scalar cell_case for the last,
+// shorter run of a row (N not a multiple of CPU_LANES). Returns how many cells the run has; false in *any_cut when
+// every cell is entirely inside or outside (cases 0 and 255), the common case.
+inline int run_cases(const __global float* field, int N, int x0, int y, int z, float threshold,
+                     int flags[CPU_LANES], bool* any_cut) {
+    const int lanes = min(CPU_LANES, N - x0);
+    if (lanes == CPU_LANES) {
+        const int8 f = cell_cases8(field, N, x0, y, z, threshold);
+        *any_cut = any((f != 0) & (f != 255));
+        vstore8(f, 0, flags);
+    } else {
+        float value[8];
+        *any_cut = false;
+        for (int l = 0; l < lanes; l++) {
+            flags[l] = cell_case(field, N, (int3)(x0 + l, y, z), threshold, value);
+            *any_cut |= flags[l] != 0 && flags[l] != 255;
+        }
+    }
+    return lanes;
+}
+
+__kernel void PolygonizeAppend_cpu(const __global float* field, float threshold, int normals, FIELD_ARGS,
+                                   __global McTriangle* triangles, volatile __global int* counter, int capacity) {
+    const int x0 = get_global_id(0) * CPU_LANES, y = get_global_id(1), z = get_global_id(2);
+    if (x0 >= N) return;  // padding of the rounded-up rows
+    int flags[CPU_LANES];
+    bool any_cut;
+    const int lanes = run_cases(field, N, x0, y, z, threshold, flags, &any_cut);
+    if (!any_cut) return;
+    for (int l = 0; l < lanes; l++) {
+        if (flags[l] == 0 || flags[l] == 255) continue;
+        const int3 c = (int3)(x0 + l, y, z);
+        float value[8];
+        const int flag_index = cell_case(field, N, c, threshold, value);  // the corner values, for the cut cells only
+        append_cell(field, threshold, normals, N, radius, twist, triangles, counter, capacity, c, flag_index, value);
     }
 }
 
@@ -255,6 +359,20 @@ __kernel void ClassifyCells(const __global float* field, float threshold, int N,
     const int3 c = (int3)(cell % N, (cell / N) % N, cell / (N * N));
     float value[8];
     cell_ntri[cell] = case_triangles(cell_case(field, N, c, threshold, value));
+}
+
+__kernel void ClassifyCells_cpu(const __global float* field, float threshold, int N, __global uint* cell_ntri) {
+    const int x0 = get_global_id(0) * CPU_LANES, y = get_global_id(1), z = get_global_id(2);
+    if (x0 >= N) return;
+    int flags[CPU_LANES];
+    bool any_cut;
+    const int lanes = run_cases(field, N, x0, y, z, threshold, flags, &any_cut);
+    const int first = x0 + N * (y + N * z);
+    if (!any_cut && lanes == CPU_LANES) {
+        vstore8((uint8)(0u), 0, cell_ntri + first);
+        return;
+    }
+    for (int l = 0; l < lanes; l++) cell_ntri[first + l] = case_triangles(flags[l]);
 }
 
 // Exclusive scan of SCAN_BLOCK_SIZE values per work-group (Hillis-Steele in __local memory); the group's total
@@ -298,6 +416,28 @@ __kernel void GenerateTriangles(const __global float* field, float threshold, in
     for (int i = 0; i < count; i++) {
         const uint slot = cell_off[cell] + i;  // the host sized the pool from the scan's total: a guard, not a clamp
         if (slot < (uint)capacity) store_triangle(&triangles[slot], flag_index, i, vertex, normal, N, (uint)cell);
+    }
+}
+
+__kernel void GenerateTriangles_cpu(const __global float* field, float threshold, int normals, FIELD_ARGS,
+                                    const __global uint* cell_ntri, const __global uint* cell_off,
+                                    __global McTriangle* triangles, int capacity) {
+    const int x0 = get_global_id(0) * CPU_LANES, y = get_global_id(1), z = get_global_id(2);
+    if (x0 >= N) return;
+    const int first = x0 + N * (y + N * z), lanes = min(CPU_LANES, N - x0);
+    if (lanes == CPU_LANES && !any(vload8(0, cell_ntri + first) != 0u)) return;  // eight empty cells
+    for (int l = 0; l < lanes; l++) {
+        const int cell = first + l, count = cell_ntri[cell];
+        if (count == 0) continue;
+        const int3 c = (int3)(x0 + l, y, z);
+        float value[8];
+        const int flag_index = cell_case(field, N, c, threshold, value);
+        float3 vertex[12], normal[12];
+        cell_edges(field, c, flag_index, value, threshold, normals, N, radius, twist, vertex, normal);
+        for (int i = 0; i < count; i++) {
+            const uint slot = cell_off[cell] + i;
+            if (slot < (uint)capacity) store_triangle(&triangles[slot], flag_index, i, vertex, normal, N, (uint)cell);
+        }
     }
 }
 

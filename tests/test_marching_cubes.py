@@ -184,8 +184,18 @@ def topology(faces: np.ndarray, n_vertices: int) -> dict:
 # }}}
 
 
-def make(runtime, n: int = 32, **overrides) -> Simulation:
-    return Simulation(runtime, Params(segment_num=n, **overrides))
+def make(runtime, n: int = 32, cpu_kernels: bool | None = None, **overrides) -> Simulation:
+    """A scene on ``runtime``; ``cpu_kernels`` True/False remeshes with the *_cpu or the one-cell kernels (None: the
+    device's own choice)."""
+    sim = Simulation(runtime, Params(segment_num=n, **overrides))
+    if cpu_kernels is not None and cpu_kernels != sim.cpu_kernels:
+        sim.cpu_kernels = cpu_kernels
+        sim.remesh()
+    return sim
+
+
+def test_cpu_kernels_are_chosen_by_device_type(runtime):
+    assert make(runtime, 8).cpu_kernels == (not runtime.is_gpu)  # the fixture's devices: PoCL or a GPU
 
 
 # {{{ layout and tables
@@ -298,8 +308,9 @@ def test_generated_header_is_up_to_date():
         (33, "kaiware", 5.0),
     ],
 )
-def test_sample_field_matches_reference(runtime, n, shape, t):
-    sim = make(runtime, n, shape=shape, time=t)
+@pytest.mark.parametrize("cpu_kernels", [False, True], ids=["one-cell", "cpu"])
+def test_sample_field_matches_reference(runtime, n, shape, t, cpu_kernels):
+    sim = make(runtime, n, cpu_kernels, shape=shape, time=t)
     field = sim.field_array()
     expected = field_reference(n, shape, t)
     # float32 exp/log/sqrt of values ~0.5 against float64: observed <= 4e-7 (the chapter page: < 2e-6)
@@ -313,8 +324,9 @@ def test_sample_field_matches_reference(runtime, n, shape, t):
     "n, shape, t, normals",
     [(8, "spheres-book", 0.0, "analytic"), (17, "spheres-repo", 0.3, "grid"), (32, "spheres-repo", 0.0, "analytic")],
 )
-def test_polygonize_matches_reference(runtime, path, n, shape, t, normals):
-    sim = make(runtime, n, shape=shape, time=t, normals=normals, path=path)
+@pytest.mark.parametrize("cpu_kernels", [False, True], ids=["one-cell", "cpu"])
+def test_polygonize_matches_reference(runtime, path, n, shape, t, normals, cpu_kernels):
+    sim = make(runtime, n, cpu_kernels, shape=shape, time=t, normals=normals, path=path)
     state = sim.state()
     field = state["field"].astype(np.float64)  # classify on the kernel's own field: the same cases
     if normals == "analytic":
@@ -746,3 +758,11 @@ def test_kernels_on_oclgrind(oclgrind):
         np.testing.assert_allclose(state["field"], field_reference(9, "spheres-book", 0.0), atol=2e-6)
     kaiware = Simulation(oclgrind, Params(segment_num=8, shape="kaiware", normals="grid", time=1.0))
     assert kaiware.state()["tri_count"] > 0
+    # the *_cpu kernels: N = 9 has a full run of 8 cells and a run of 1 per row (the field: 8 + 2 points), N = 16
+    # full runs whose last vload8 reads the row's last point
+    for n, shape in ((9, "spheres-book"), (16, "spheres-repo"), (9, "kaiware")):
+        for path in ("append", "scan"):
+            sim = make(oclgrind, n, True, shape=shape, path=path)
+            assert sim.state()["tri_count"] > 0
+            if shape != "kaiware":
+                np.testing.assert_allclose(sim.field_array(), field_reference(n, shape, 0.0), atol=2e-6)

@@ -26,6 +26,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
 from ..benchmark import seconds_per_call
@@ -47,6 +48,8 @@ NORMALS = {"analytic": 0, "grid": 1}
 SCAN_BLOCK_SIZE = 256
 """Work-group size of ScanBlocks (values scanned per group in __local memory)."""
 FIELD_GROUP = 64
+CPU_LANES = 8
+"""Cells (or grid points) of a row per work-item of the *_cpu kernels (CPU_LANES in marching_cubes.cl)."""
 """Work-group width of SampleField (x rows rounded up to it): 4 AVX-512 vectors for PoCL, 2 warps on a GPU."""
 PULSE_RATE = 8.0
 """Angular frequency of the spheres' pulsing, rad/s (book: sin(_Time.y * 8.0 + i * 23.365)): period 2 pi / 8 s."""
@@ -124,6 +127,9 @@ class Simulation(BaseSimulation):
         p, rt = self.params, self.runtime
         self.n = p.segment_num
         self.cells = self.n**3
+        # CPU devices run the *_cpu kernels (eight cells of a row per work-item in vector lanes: PoCL's vector
+        # exp/log and one test per eight empty cells); Oclgrind and GPUs the one-cell kernels. Tests may set either.
+        self.cpu_kernels = bool(rt.device.type & cl.device_type.CPU) and not rt.is_oclgrind
         self.field = rt.zeros((self.n + 1) ** 3, np.float32)
         self.pool = Pool(rt, p.triangle_capacity or CAPACITY_PER_FACE_CELL * self.n**2, TRIANGLE_DTYPE, "triangles")
         self.cell_ntri = None  # the two-pass buffers, made on first use
@@ -152,9 +158,17 @@ class Simulation(BaseSimulation):
 
     # {{{ kernels, in the book's order
 
+    def _runs(self, points: int) -> tuple[tuple, tuple | None]:
+        """(global, local) size of a *_cpu kernel over the points^3 cells (N) or grid points (N + 1): one work-item
+        per CPU_LANES of a row."""
+        return (-(-points // CPU_LANES), points, points), None
+
     def sample_field(self) -> None:
         """SampleField: the book's Sample at all (N+1)^3 grid points at the current field time."""
         side = self.n + 1
+        if self.cpu_kernels:
+            self.program.kernel("SampleField_cpu")(*self._runs(side), self.field.data, *self._field_args())
+            return
         size = (round_up(side, FIELD_GROUP), side, side)
         self.program.kernel("SampleField")(size, (FIELD_GROUP, 1, 1), self.field.data, *self._field_args())
 
@@ -163,9 +177,8 @@ class Simulation(BaseSimulation):
         ``capacity`` below the pool's size leaves the slots after it untouched (the overflow test's canary)."""
         pool = pool or self.pool
         pool.set_count(0)
-        self.program.kernel("PolygonizeAppend")(
-            (self.cells,),
-            None,
+        self.program.kernel("PolygonizeAppend_cpu" if self.cpu_kernels else "PolygonizeAppend")(
+            *(self._runs(self.n) if self.cpu_kernels else ((self.cells,), None)),
             *self._cell_args(),
             pool.items.data,
             pool.counter.data,
@@ -177,9 +190,8 @@ class Simulation(BaseSimulation):
         if self.cell_ntri is None:
             self.cell_ntri = self.runtime.zeros(self.cells, np.uint32)
             self.cell_off = self.runtime.zeros(self.cells, np.uint32)
-        self.program.kernel("ClassifyCells")(
-            (self.cells,),
-            None,
+        self.program.kernel("ClassifyCells_cpu" if self.cpu_kernels else "ClassifyCells")(
+            *(self._runs(self.n) if self.cpu_kernels else ((self.cells,), None)),
             self.field.data,
             np.float32(self.params.threshold),
             np.int32(self.n),
@@ -211,9 +223,8 @@ class Simulation(BaseSimulation):
 
     def generate_triangles(self) -> None:
         """GenerateTriangles: every cell writes its triangles at cell_off[cell] (needs ClassifyCells and scan)."""
-        self.program.kernel("GenerateTriangles")(
-            (self.cells,),
-            None,
+        self.program.kernel("GenerateTriangles_cpu" if self.cpu_kernels else "GenerateTriangles")(
+            *(self._runs(self.n) if self.cpu_kernels else ((self.cells,), None)),
             *self._cell_args(),
             self.cell_ntri.data,
             self.cell_off.data,
@@ -318,9 +329,10 @@ class Simulation(BaseSimulation):
 
 def bench(runtime, sizes=None) -> list[dict]:
     """Marching cubes of the three spheres (repository radii, t = 0.3) on N^3 cells: ms for SampleField ((N+1)^3 field
-    evaluations) and for each OpenCL path on that field, voxels (cells) per second of the meshing alone and of field +
-    mesh, against scikit-image's marching_cubes (lorensen) meshing the same float32 field in the same run (where
-    scikit-image, a test dependency, is installed); the field's write traffic (4 bytes per sample) per second."""
+        evaluations) and for each OpenCL path on that field, voxels (cells) per second of the meshing alone and of field +
+        mesh, against scikit-image's marching_cubes (lorensen) meshing the same float32 field in the same run (where
+        scikit-image, a test dependency, is installed); the field's write traffic and the meshing's least read traffic (4
+    bytes per grid point each) per second. "kernels": the *_cpu kernels (CPU devices) or the one-cell kernels."""
     try:
         from skimage.measure import marching_cubes as skimage_marching_cubes
     except ImportError:
@@ -339,12 +351,14 @@ def bench(runtime, sizes=None) -> list[dict]:
                 {
                     "N": n,
                     "mesher": f"OpenCL {path}",
+                    "kernels": "cpu" if sim.cpu_kernels else "one-cell",
                     "ms field": field_s * 1e3,
                     "ms mesh": mesh_s * 1e3,
                     "triangles": sim.pool.count(),
                     "voxels/s mesh": cells / mesh_s,
                     "voxels/s field+mesh": cells / (field_s + mesh_s),
                     "field bytes/s": 4 * (n + 1) ** 3 / field_s,
+                    "mesh bytes/s": 4 * (n + 1) ** 3 / mesh_s,
                 }
             )
         if skimage_marching_cubes is None:
@@ -358,6 +372,7 @@ def bench(runtime, sizes=None) -> list[dict]:
             {
                 "N": n,
                 "mesher": "scikit-image",
+                "kernels": "-",
                 "ms field": "-",
                 "ms mesh": mesh_s * 1e3,
                 "triangles": len(faces),
