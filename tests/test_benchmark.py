@@ -43,9 +43,129 @@ def test_measured_limits_are_positive_and_shares_follow_their_columns(runtime):
     rows = with_shares([{"size": 8, "Jacobi bytes/s": 2.5e8, "x flop/s": 5e11, "ms": 1.0}], limits)
     assert list(rows[0]) == ["size", "Jacobi bytes/s", "% copy bw", "x flop/s", "% FP32 peak", "ms"]
     assert rows[0]["% copy bw"] == pytest.approx(25.0) and rows[0]["% FP32 peak"] == pytest.approx(50.0)
+    # two columns of one kind (marching cubes' field and mesh): each share is named after its column
+    rows = with_shares([{"field bytes/s": 1e8, "mesh bytes/s": 2e8}], limits)
+    assert rows[0] == {"field bytes/s": 1e8, "field % copy bw": 10.0, "mesh bytes/s": 2e8, "mesh % copy bw": 20.0}
 
 
 @pytest.mark.oclgrind
 def test_probes_are_clean_under_oclgrind(oclgrind):
     launch, fma = run_probes(oclgrind, n=16, rounds=1)
     np.testing.assert_allclose(fma, fma_probe_reference(16, 1, 0.999, 1e-3), rtol=1e-5)
+
+
+# {{{ the counts behind each chapter's share column
+
+
+STATED_COUNTS = {
+    "sph_2d": ("PAIR_TEST_FLOPS", "PAIR_SUM_FLOPS"),
+    "compute_intro": ("TEXEL_BYTES",),
+    "grass": ("BLADE_BYTES",),
+    "star_glow": ("TEXEL_BYTES",),
+    "space_colonization": ("PAIR_FLOPS",),
+    "kleinian": ("ITERATION_FLOPS",),
+    "mcmc": ("STEP_FLOPS", "DENSITY_FLOPS", "LEGACY_PICK_FLOPS"),
+    "cellular_growth": ("REPEL_TEST_FLOPS", "REPEL_CONTACT_FLOPS"),
+    "poisson_disk": ("DART_ROUND_BYTES_PER_CELL", "SAMPLE_BYTES"),
+    "multiplane_projection": ("MARCH_STEP_FLOPS", "SHAPE_DISTANCE_FLOPS"),
+    "projection_spray": ("SPRAY_TEXEL_BYTES", "PAINT_TEXEL_BYTES"),
+    "tessellation": ("FLUID_KERNEL_BYTES",),
+    "procedural_modeling": ("GRID_VERTEX_BYTES", "GRID_CELL_BYTES", "TUBE_VERTEX_BYTES", "TUBE_RING_BYTES",
+                            "TUBE_QUAD_BYTES"),
+    "stable_fluids_2d": ("JACOBI_BYTES_PER_CELL",),
+    "cloth": ("SUBSTEP_BYTES_PER_PARTICLE",),
+    "boids": ("FLOPS_PER_PAIR",),
+}  # fmt: skip
+
+
+def leaves(value):
+    """The numbers of a count: itself, or every value of a (nested) dict."""
+    if isinstance(value, dict):
+        for v in value.values():
+            yield from leaves(v)
+    else:
+        yield value
+
+
+@pytest.mark.parametrize("chapter", sorted(STATED_COUNTS))
+def test_stated_counts_are_positive_numbers(chapter):
+    import importlib
+
+    module = importlib.import_module(f"ugpcl.scenes.{chapter}")
+    for name in STATED_COUNTS[chapter]:
+        values = list(leaves(getattr(module, name)))
+        assert values and all(isinstance(v, int | float) and not isinstance(v, bool) and v > 0 for v in values), name
+
+
+def test_every_bench_row_has_a_share_column_or_a_dash():
+    """Each chapter's bench states a count: its source names a `bytes/s` or `flop/s` column."""
+    import inspect
+
+    from ugpcl.cli import _benches
+
+    for name, bench in _benches().items():
+        if name in ("copy", "peak", "launch"):  # the device's limits themselves
+            continue
+        source = inspect.getsource(inspect.getmodule(bench))
+        assert 'bytes/s"' in source or 'flop/s"' in source, name
+
+
+def test_grid_pairs_are_the_pairs_of_neighbouring_cells():
+    from ugpcl.benchmark import grid_pairs_2d
+
+    rng = np.random.default_rng(1)
+    points = rng.uniform(-0.5, 4.5, (300, 2))  # some outside the 4 x 3 grid: clamped into its border cells
+    i, j = grid_pairs_2d(points, (0.0, 0.0), 1.0, (4, 3, 1))
+    cells = np.clip(np.floor(points), 0, [3, 2]).astype(int)
+    near = np.all(np.abs(cells[:, None, :] - cells[None, :, :]) <= 1, axis=2) & ~np.eye(len(points), dtype=bool)
+    assert sorted(zip(i.tolist(), j.tolist(), strict=True)) == sorted(zip(*np.nonzero(near), strict=True))
+
+
+def test_star_glow_frame_bytes_follow_the_passes():
+    from ugpcl.scenes.star_glow import TEXEL_BYTES, frame_bytes
+
+    W, H, w, h, n = 64, 32, 16, 8, 3
+    # iteration 1: Brightness 5, streaks (book: per direction 2 + 3, comp cleared 1; fused: bright in, comp out),
+    # Composite 2 W H + 1
+    assert frame_bytes(W, H, w, h, n, 1, "book") == TEXEL_BYTES * (5 * w * h + (1 + n * 5) * w * h + 2 * W * H + w * h)
+    assert frame_bytes(W, H, w, h, n, 1, "fused") == TEXEL_BYTES * (5 * w * h + 2 * w * h + 2 * W * H + w * h)
+    # every extra pass: book 2 w h per direction; fused n layers read and written
+    extra_book = frame_bytes(W, H, w, h, n, 3, "book") - frame_bytes(W, H, w, h, n, 2, "book")
+    extra_fused = frame_bytes(W, H, w, h, n, 3, "fused") - frame_bytes(W, H, w, h, n, 2, "fused")
+    assert extra_book == TEXEL_BYTES * 2 * n * w * h and extra_fused == TEXEL_BYTES * 2 * n * w * h
+
+
+def test_tessellation_frame_bytes_count_the_launches_of_a_frame(runtime):
+    from ugpcl.scenes.tessellation import Params, Simulation, frame_bytes
+
+    sim = Simulation(runtime, Params(grid=32, variant="fixed", gs_iterations=2), seed=0)
+    sim.step()  # the stroke is held from here on: every frame paints
+    # brush 16, AddSourceVelocity 32, 2 diffusions 24, two projections (36 + 2 x 12 + 24), SwapVelocity 16,
+    # AdvectVelocity 16, AddSourceDensity 16, 2 diffusions 12, SwapDensity 8, AdvectDensity 16, Draw 28
+    assert frame_bytes(sim) == 388 * 32 * 32
+    steps = sim.steps
+    frame_bytes(sim)
+    assert sim.steps == steps + 1 and "_grid" not in vars(sim.fluid)  # one real step; the counter is gone
+
+
+@pytest.mark.parametrize(("chapter", "size", "share"), [("sph_2d", "256", "% FP32 peak"),
+                                                        ("cellular_growth", "256", "% FP32 peak"),
+                                                        ("tessellation", "32", "% copy bw")])  # fmt: skip
+def test_small_bench_rows_carry_their_share(capsys, tmp_path, chapter, size, share):
+    """A bench at a tiny size (well under 2 s on PoCL): every row has the share of its count, and --json holds it."""
+    import json
+
+    from ugpcl.cli import main
+
+    out_json = tmp_path / "b.json"
+    assert main(["bench", chapter, "--size", size, "--json", str(out_json)]) == 0
+    table = capsys.readouterr().out
+    assert share in table
+    records = json.loads(out_json.read_text())
+    rows = {json.dumps(r["labels"], sort_keys=True) for r in records}
+    shares = [r for r in records if r["figure"] == share]
+    assert len(shares) == len(rows) >= 2 and all(0 < r["value"] < 1000 for r in shares)
+    assert not any("-" in r["labels"].values() for r in records)  # a "-" cell is no figure and no label
+
+
+# }}}

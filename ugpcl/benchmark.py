@@ -183,17 +183,49 @@ def bench_peak(runtime, sizes=None) -> list[dict]:
     return [{"probe": "FmaProbe", "TFLOP/s": fp32_rate(runtime) / 1e12}]
 
 
+def grid_pairs_2d(points, origin, cell_size: float, dims) -> tuple:
+    """The ordered pairs (i, j), i != j, that a 2D uniform-grid kernel visits (j in the 3x3 cells around i's cell,
+    cells clamped as grid.h's grid_cell_coord), as two index arrays: a host count of a grid kernel's pair work for
+    the flop columns of a bench (with cell_size >= the radius they hold every pair within it)."""
+    import numpy as np
+
+    nx, ny = int(dims[0]), int(dims[1])
+    xy = np.asarray(points, np.float64)[:, :2]
+    c = np.floor((xy - np.asarray(origin, np.float64)[:2]) / cell_size)
+    c = np.clip(np.nan_to_num(c), 0, [nx - 1, ny - 1]).astype(np.int64)
+    cell = c[:, 1] * nx + c[:, 0]
+    order = np.argsort(cell, kind="stable")
+    counts = np.bincount(cell, minlength=nx * ny)
+    start = np.cumsum(counts) - counts
+    pairs_i, pairs_j = [], []
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            cx, cy = c[:, 0] + dx, c[:, 1] + dy
+            inside = (cx >= 0) & (cx < nx) & (cy >= 0) & (cy < ny)
+            items, neighbour = np.nonzero(inside)[0], cy[inside] * nx + cx[inside]
+            n = counts[neighbour]
+            first = np.repeat(start[neighbour], n)
+            rank = np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)  # 0 .. n - 1 within each neighbour cell
+            pairs_i.append(np.repeat(items, n))
+            pairs_j.append(order[first + rank])
+    i, j = np.concatenate(pairs_i), np.concatenate(pairs_j)
+    keep = i != j
+    return i[keep], j[keep]
+
+
 def with_shares(rows: list[dict], limits: DeviceLimits) -> list[dict]:
-    """``rows`` with ``% copy bw`` after each ``... bytes/s`` column and ``% FP32 peak`` after each ``... flop/s``."""
+    """``rows`` with ``% copy bw`` after each ``... bytes/s`` column and ``% FP32 peak`` after each ``... flop/s``;
+    a row with two such columns of one kind names each share after its column (``field % copy bw``)."""
+    shares = (("bytes/s", "% copy bw", limits.copy_bytes_per_s), ("flop/s", "% FP32 peak", limits.fp32_flops))
     out = []
     for row in rows:
         shared = {}
         for key, value in row.items():
             shared[key] = value
-            if key.endswith("bytes/s") and isinstance(value, float):
-                shared["% copy bw"] = 100.0 * value / limits.copy_bytes_per_s
-            elif key.endswith("flop/s") and isinstance(value, float):
-                shared["% FP32 peak"] = 100.0 * value / limits.fp32_flops
+            for unit, share, limit in shares:
+                if key.endswith(unit) and isinstance(value, float):
+                    several = sum(k.endswith(unit) for k in row) > 1
+                    shared[f"{key[: -len(unit)].strip()} {share}" if several else share] = 100.0 * value / limit
         out.append(shared)
     return out
 

@@ -599,12 +599,12 @@ def _benches() -> dict:
 def bench_records(device: str, chapter: str, date: str, rows: list[dict]) -> list[dict]:
     """One record per measured number of a bench table: the row's text and integer columns as labels (variant,
     size), the float column as the figure (its name carries the unit: ``ms/step``, ``cell updates/s``) and the
-    value."""
+    value. A "-" (no figure in this row: a host baseline has no device share) is neither."""
     records = []
     for row in rows:
-        labels = {k: v for k, v in row.items() if not isinstance(v, float)}  # sizes are ints, figures floats
+        labels = {k: v for k, v in row.items() if not isinstance(v, float) and v != "-"}  # sizes are ints
         for key, value in row.items():
-            if key not in labels:
+            if isinstance(value, float):
                 figure = {"device": device, "chapter": chapter, "date": date, "labels": labels}
                 records.append({**figure, "figure": key, "value": value})
     return records

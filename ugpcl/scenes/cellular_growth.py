@@ -38,7 +38,7 @@ import numpy as np
 import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
-from ..benchmark import seconds_per_call, seconds_per_step
+from ..benchmark import grid_pairs_2d, seconds_per_call, seconds_per_step
 from ..buffers import PingPong, Pool
 from ..grid import UniformGrid
 from ..scene import Params as BaseParams
@@ -632,10 +632,39 @@ def colony(count: int, spacing: float = 1.0, radius: float = 0.5, seed: int = 0)
     return records
 
 
+REPEL_TEST_FLOPS = 8
+"""repel() for a live pair, up to its contact test: dir = p - other (2), length(dir) (dot 3, sqrt 1) and the contact
+distance (r_a + r_b) * repulsion (2). Flop convention of the benches: an FMA is 2, sqrt and a division 1 each."""
+
+REPEL_CONTACT_FLOPS = 11
+"""What a pair in contact adds: normalize(dir) (dot 3, sqrt 1, 2 divisions), (r - l) (1), the product (2) and the
+velocity sum (2); the rare wobble of coincident cells is not counted."""
+
+
+def repel_flops(records: np.ndarray, repulsion: float, grid, all_pairs: bool) -> float:
+    """Flops of one UpdateParticles (or UpdateParticles_grid) pass over live cells ``records``: REPEL_TEST_FLOPS per
+    pair tested (all count(count-1), or the live pairs in the 3x3 cells of ``grid``, a UniformGrid) and
+    REPEL_CONTACT_FLOPS per pair in contact (counted through a host grid of cells of the largest contact distance)."""
+    live = records[records["alive"] != 0]
+    xy = live["position"].astype(np.float64)
+    cell = 2.0 * MAX_RADIUS * repulsion * GRID_CELL_MARGIN
+    low = xy.min(axis=0) - cell
+    dims = np.ceil((xy.max(axis=0) - low) / cell).astype(int) + 2
+    i, j = grid_pairs_2d(xy, low, cell, dims)
+    d = np.linalg.norm(xy[i] - xy[j], axis=1)
+    contacts = int(np.count_nonzero(d < (live["radius"][i] + live["radius"][j]) * np.float64(repulsion)))
+    if all_pairs:
+        tests = len(xy) * (len(xy) - 1)
+    else:
+        tests = len(grid_pairs_2d(xy, grid.origin, grid.cell_size, grid.dims)[0])
+    return REPEL_TEST_FLOPS * tests + REPEL_CONTACT_FLOPS * contacts
+
+
 def bench(runtime, sizes=None) -> list[dict]:
     """Particle-steps/s (capacity x UpdateParticles passes per second) of the particle-only step with every slot alive
     (a hexagonal colony), for the book's all-pairs UpdateParticles and the uniform-grid variant, and ms per Divide
-    (GetDividableParticles and its counter reads; the pool is empty, so nothing splits)."""
+    (GetDividableParticles and its counter reads; the pool is empty, so nothing splits); repel flop/s = repel_flops
+    at the state the timed steps end in, per step time (Divide included in the time, not in the flops)."""
     sizes = sizes or ([4096, 16384, 65536, 262144] if runtime.is_gpu else [1024, 4096])
     rows = []
     for count in sizes:
@@ -647,6 +676,8 @@ def bench(runtime, sizes=None) -> list[dict]:
             sim.load(cells)
             seconds = seconds_per_step(sim, min_seconds=0.5, max_steps=20)
             base = base or seconds
+            records = sim.particle_records()
+            flops = repel_flops(records, params.repulsion, sim.grid, search == "all_pairs")
             divide = seconds_per_call(sim.divide, runtime.queue, min_seconds=0.2, max_calls=20)
             rows.append(
                 {
@@ -656,6 +687,7 @@ def bench(runtime, sizes=None) -> list[dict]:
                     "particle-steps/s": count / seconds,
                     "speed-up": base / seconds,
                     "ms/Divide": divide * 1e3,
+                    "repel flop/s": flops / seconds,
                 }
             )
     return rows

@@ -227,9 +227,14 @@ LOCAL_SHAPES = ((8, 8), (16, 16), (32, 8), (64, 1), (256, 1), (1, 64))
 efficiently")."""
 
 
+TEXEL_BYTES = 4
+"""KernelFunction_A's whole memory traffic per texel: it reads nothing and writes one RGBA8 texel (4 bytes)."""
+
+
 def bench(runtime, sizes=None) -> list[dict]:
     """GB/s of KernelFunction_A filling a size x size RGBA8 texture with each numthreads shape,
-    and once with a size that is not a multiple of the shape (padding + guard)."""
+    and once with a size that is not a multiple of the shape (padding + guard); write bytes/s = the same traffic
+    (TEXEL_BYTES per texel) per second."""
     sizes = sizes or ([8192] if runtime.is_gpu else [2048])
     rows = []
     for size in sizes:
@@ -244,7 +249,8 @@ def bench(runtime, sizes=None) -> list[dict]:
                         "size": f"{width}x{width}",
                         "numthreads": f"{shape[0]}x{shape[1]}",
                         "ms": seconds * 1e3,
-                        "GB/s": width * width * 4 / seconds / 1e9,
+                        "GB/s": width * width * TEXEL_BYTES / seconds / 1e9,
+                        "write bytes/s": width * width * TEXEL_BYTES / seconds,
                     }
                 )
     return rows

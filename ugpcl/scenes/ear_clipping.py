@@ -359,11 +359,17 @@ def _seconds(fn, repeat: int = 3) -> float:
     return best
 
 
+NO_SHARE = "-"
+"""The share column of every ear-clipping row: the host rows (numpy, mapbox-earcut) run on the CPU outside OpenCL,
+and the EarClipping kernel's row is float64 arithmetic (FP_CONTRACT off, to match the host bit for bit) timed with
+its transfers: ``ugpcl bench peak`` measures an FP32 rate only, so no limit of the device applies to it."""
+
+
 def bench(runtime, sizes=None) -> list[dict]:
     """ms and polygons/s: one n-vertex star (n = size) by the host's numpy ear clipping and by mapbox-earcut (C++
     ear slicing with z-order hashing); then 10^4 glyph outlines (letters, holes bridged on the host beforehand) by the
     EarClipping kernel (one work-item per polygon, transfers included), by a Python loop over mapbox-earcut and by the
-    host clipper (on the first 500)."""
+    host clipper (on the first 500). clip flop/s: "-" on every row (NO_SHARE says why)."""
     import mapbox_earcut
 
     sizes = sizes or [100, 1000, 10000]
@@ -372,7 +378,7 @@ def bench(runtime, sizes=None) -> list[dict]:
     def row(workload, n, polygons, solver, seconds):
         rows.append(
             {"workload": workload, "vertices": n, "polygons": polygons, "solver": solver, "ms": seconds * 1e3,
-             "polygons/s": polygons / seconds}
+             "polygons/s": polygons / seconds, "clip flop/s": NO_SHARE}
         )  # fmt: skip
 
     for n in sizes:

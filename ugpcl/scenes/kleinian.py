@@ -352,11 +352,20 @@ REFERENCE_SAMPLES = 256
 """Samples per pixel of the reference image the anti-aliasing rows are measured against."""
 
 
+ITERATION_FLOPS = 40
+"""One iteration of jos_kleinian (include/kleinian.h) in float: the shear offset |v| / u * z.y (2) added and taken
+away (2), kleinian_wrap (5: floor not counted), kleinian_line3 (16: exp 1, sign and abs 0), the point symmetry
+(2, counted as if always taken), kleinian_trans_a (dot 3, two divisions and the translation 4) and the 2-cycle test
+length(z - llz) (6: sqrt 1). Flop convention of the benches: an FMA is 2, sqrt, exp and a division 1 each,
+compares 0. The per-pixel set-up and colour (about 30) are left out."""
+
+
 def bench(runtime, sizes=None) -> list[dict]:
     """Frame time, Mpixel-samples/s and mean iterations (of sample 0) of RenderKleinian at t = (1.94, 0.02) (the
     book's "interesting" shape; iteration 50, the scenes' value) for W x 9W/16 frames with 1 and 20 samples; then
     anti-aliasing at equal error: RMS error against a 256-sample image, uniform vs adaptive supersampling (samples
-    spent per pixel and time) at the smallest size (320 x 180 on a CPU). --size gives widths."""
+    spent per pixel and time) at the smallest size (320 x 180 on a CPU). --size gives widths. iteration flop/s:
+    ITERATION_FLOPS x the iterations of sample 0 of every pixel (standing for every sample) x samples per second."""
     widths = sizes or ([640, 1920, 3840] if runtime.is_gpu else [640])
     rows = []
     for width in widths:
@@ -376,6 +385,7 @@ def bench(runtime, sizes=None) -> list[dict]:
                     "ms/frame": seconds * 1e3,
                     "Mpixel-samples/s": width * height * samples / seconds / 1e6,
                     "mean iterations": float(image["iters"].mean()),
+                    "iteration flop/s": ITERATION_FLOPS * float(image["iters"].sum()) * samples / seconds,
                 }
             )
     rows += _aa_rows(runtime, widths[0] if runtime.is_gpu or sizes else 320)  # a 256-sample frame is slow on a CPU
@@ -407,6 +417,7 @@ def _aa_rows(runtime, width: int) -> list[dict]:
                     "ms/frame": seconds * 1e3,
                     "samples/pixel": float(spent),
                     "RMS error": error,
+                    "iteration flop/s": ITERATION_FLOPS * float(image["iters"].sum()) * float(spent) / seconds,
                 }
             )
     return rows

@@ -329,9 +329,9 @@ class Simulation(BaseSimulation):
 
 def bench(runtime, sizes=None) -> list[dict]:
     """Marching cubes of the three spheres (repository radii, t = 0.3) on N^3 cells: ms for SampleField ((N+1)^3 field
-        evaluations) and for each OpenCL path on that field, voxels (cells) per second of the meshing alone and of field +
-        mesh, against scikit-image's marching_cubes (lorensen) meshing the same float32 field in the same run (where
-        scikit-image, a test dependency, is installed); the field's write traffic and the meshing's least read traffic (4
+    evaluations) and for each OpenCL path on that field, voxels (cells) per second of the meshing alone and of field +
+    mesh, against scikit-image's marching_cubes (lorensen) meshing the same float32 field in the same run (where
+    scikit-image, a test dependency, is installed); the field's write traffic and the meshing's least read traffic (4
     bytes per grid point each) per second. "kernels": the *_cpu kernels (CPU devices) or the one-cell kernels."""
     try:
         from skimage.measure import marching_cubes as skimage_marching_cubes

@@ -456,11 +456,32 @@ class LSystemSimulation(MeshSimulation):
 # }}}
 
 
+GRID_VERTEX_BYTES = 44
+"""Least memory traffic per vertex of GridVertices + GridNormals: positions (12) and uvs (8) written, positions
+read back (12: the neighbours' from cache) and normals written (12); GridTriangles adds GRID_CELL_BYTES per cell.
+About 100 flops a vertex (one Perlin octave, six cross products for the normal) stay below what the bandwidth
+allows: memory-bound."""
+
+GRID_CELL_BYTES = 24
+"""GridTriangles per cell: the two triangles' six int32 indices written."""
+
+TUBE_VERTEX_BYTES = 48
+"""TubeRings per ring vertex: position (12), normal (12), tangent (16) and uv (8) written; each ring's inputs
+(centre, tangent, normal, binormal, radius, v: TUBE_RING_BYTES) are read once for its radial_segments + 1 vertices."""
+
+TUBE_RING_BYTES = 56
+"""TubeRings per ring: the four float3 frame vectors, the radius and v read (4 x 12 + 4 + 4)."""
+
+TUBE_QUAD_BYTES = 24
+"""TubeTriangles per quad: the two triangles' six int32 indices written."""
+
+
 def bench(runtime, sizes=None) -> list[dict]:
     """Meshes too large for the book's C# loops: a terrain plane of N x N vertices (Perlin heights, recalculated
     normals; N from --size, default 2048) and a forest of 1000 trees (about 6M vertices): ms and vertices/s of the
     numpy generator and of the kernels (device arrays, no read-back); the forest's skeleton (branch frames, grown
-    on the host for both) is timed apart."""
+    on the host for both) is timed apart. kernels bytes/s: the kernels' least traffic (GRID_VERTEX_BYTES and
+    GRID_CELL_BYTES; TUBE_VERTEX_BYTES, TUBE_RING_BYTES and TUBE_QUAD_BYTES) per second."""
     rows = []
     queue = runtime.queue
     for n in sizes or [2048]:
@@ -469,7 +490,8 @@ def bench(runtime, sizes=None) -> list[dict]:
         sim.build()
         numpy_s = time.perf_counter() - start
         kernel_s = seconds_per_call(sim.launch_grid, queue, min_seconds=1.0, max_calls=50)
-        rows.append(_bench_row(f"terrain {n}x{n}", n * n, numpy_s, kernel_s, 0.0))
+        traffic = GRID_VERTEX_BYTES * n * n + GRID_CELL_BYTES * (n - 1) * (n - 1)
+        rows.append(_bench_row(f"terrain {n}x{n}", n * n, numpy_s, kernel_s, 0.0, traffic))
     params = TreeParams(trees=FOREST_TREES, builder="numpy")
     start = time.perf_counter()
     forest = TreeSimulation(runtime, params, seed=0)  # grows the skeleton, then meshes it with numpy
@@ -479,11 +501,17 @@ def bench(runtime, sizes=None) -> list[dict]:
     numpy_s = time.perf_counter() - start
     kernel_s = seconds_per_call(forest.launch_rings, queue, min_seconds=1.0, max_calls=50)
     vertices = len(forest.mesh().vertices)
-    rows.append(_bench_row(f"forest {FOREST_TREES} trees", vertices, numpy_s, kernel_s, total_s - numpy_s))
+    rings, quads = forest.ring_inputs[2], len(forest.branches) * params.height_segments * params.radial_segments
+    traffic = (
+        TUBE_VERTEX_BYTES * rings * (params.radial_segments + 1) + TUBE_RING_BYTES * rings + TUBE_QUAD_BYTES * quads
+    )
+    rows.append(_bench_row(f"forest {FOREST_TREES} trees", vertices, numpy_s, kernel_s, total_s - numpy_s, traffic))
     return rows
 
 
-def _bench_row(workload: str, vertices: int, numpy_s: float, kernel_s: float, skeleton_s: float) -> dict:
+def _bench_row(
+    workload: str, vertices: int, numpy_s: float, kernel_s: float, skeleton_s: float, kernel_bytes: int
+) -> dict:
     return {
         "workload": workload,
         "vertices": vertices,
@@ -493,6 +521,7 @@ def _bench_row(workload: str, vertices: int, numpy_s: float, kernel_s: float, sk
         "vertices/s kernels": vertices / kernel_s,
         "x numpy": numpy_s / kernel_s,
         "ms skeleton (host)": skeleton_s * 1e3,
+        "kernels bytes/s": kernel_bytes / kernel_s,
     }
 
 
@@ -523,6 +552,7 @@ SCENES = [
         "A plane of W x H vertices (vol.1 ch.1)",
         {"material": "all"},
         view="PlaneView",
+        preview={"steps": 1, "width": 2.0, "height": 2.0},  # 2 x 2 planes: the three copies fill the row
     ),
     Scene(
         "procedural_modeling_mountain",

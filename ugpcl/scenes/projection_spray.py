@@ -623,10 +623,21 @@ class Simulation(BaseSimulation):
     # }}}
 
 
+SPRAY_TEXEL_BYTES = 80
+"""Least memory traffic per texel of a sprayed tile, float4 texels: SprayDraw reads pos_tex and nrm_tex (32; the
+spray's depth map and shape come from cache) and EdgeThicken reads pos_tex and the paint and writes the canvas (48).
+The ring of tiles EdgeThicken adds around the sprayed ones and the depth map's pass are not counted."""
+
+PAINT_TEXEL_BYTES = 32
+"""What a texel the paint changes adds: SprayDraw reads and writes its paint texel (16 each)."""
+
+
 def bench(runtime, sizes=None) -> list[dict]:
     """Painted texels/s: one frame (depth map, SprayDraw, EdgeThicken) per step, spraying 1 or 8 unit spheres
     (bench_spheres) from 12 units, per texture size, with and without tile skipping. texels/s counts every texel
-    the sample's passes touch (objects x tex^2 per frame); painted texels/s only those the paint changed."""
+    the sample's passes touch (objects x tex^2 per frame); painted texels/s only those the paint changed.
+    frame bytes/s: SPRAY_TEXEL_BYTES per texel of the tiles sprayed and PAINT_TEXEL_BYTES per painted texel, per
+    second."""
     sizes = sizes or ([1024, 2048] if runtime.is_gpu else [128, 256])
     rows = []
     for tex in sizes:
@@ -650,6 +661,10 @@ def bench(runtime, sizes=None) -> list[dict]:
                         "texels/s": objects * tex * tex / seconds,
                         "painted texels/s": painted / seconds,
                         "tiles sprayed": sim.tiles_last,
+                        "frame bytes/s": (
+                            SPRAY_TEXEL_BYTES * sim.tiles_last * TILE * TILE + PAINT_TEXEL_BYTES * painted
+                        )
+                        / seconds,
                     }
                 )
     return rows

@@ -580,10 +580,36 @@ def grow_fully(sim: Simulation, max_steps: int) -> tuple[int, float, int]:
     return sim.steps, time.perf_counter() - start, sim.last_growth_step
 
 
+PAIR_FLOPS = 9
+"""One attraction-node pair of Search or Remove (all pairs): the difference (3), its length (dot 5, sqrt 1). Flop
+convention of the benches: an FMA is 2, sqrt and a division 1 each, compares 0."""
+
+
+def all_pairs_tests(runtime, side: int) -> int:
+    """Pairs that the all-pairs Search and Remove test over a whole growth (grow_fully from the reset): per step
+    that runs them, active attractions x live nodes each (Remove stops at the first node within the kill distance:
+    counted as the whole loop, exact for the attractions that stay). Counted in an untimed replay of the grid
+    variant (the same tree), reading the attractions before each step."""
+    sim = Simulation(runtime, Params(side=side, search="grid"), seed=0)
+    book_step, tests = sim.book_step, 0
+
+    def counted(dt: float) -> None:
+        nonlocal tests
+        if sim.free_slots > 0:  # Search .. Remove run only then
+            tests += 2 * int(np.count_nonzero(sim.read_attractions()["active"])) * sim.live_nodes
+        book_step(dt)
+
+    sim.book_step = counted
+    grow_fully(sim, 3000)
+    return tests
+
+
 def bench(runtime, sizes=None) -> list[dict]:
     """Space colonization (book scene values, sphere cloud, the default repeat guard so that growth ends): seconds
     and steps until the tree is fully grown, steps/s over that growth, and the uniform grid's speed-up over the
-    book's all-pairs loops (all-pairs is skipped where one tree would take minutes)."""
+    book's all-pairs loops (all-pairs is skipped where one tree would take minutes). pair flop/s (all pairs):
+    PAIR_FLOPS x all_pairs_tests over the growth's seconds; the grid rows have "-": the pairs its 3x3x3 cells hold
+    change every step and are not counted on the host."""
     sizes = sizes or ([4096, 16384, 65536, 262144] if runtime.is_gpu else [1736, 4096, 16384])
     all_pairs_limit = 70000 if runtime.is_gpu else 20000
     rows = []
@@ -602,6 +628,7 @@ def bench(runtime, sizes=None) -> list[dict]:
                         "steps/s": "-",
                         "nodes": "-",
                         "speed-up": "-",
+                        "pair flop/s": "-",
                     }
                 )
                 continue
@@ -617,6 +644,7 @@ def bench(runtime, sizes=None) -> list[dict]:
                     "steps/s": steps / secs,
                     "nodes": sim.live_nodes,
                     "speed-up": speed_up,
+                    "pair flop/s": PAIR_FLOPS * all_pairs_tests(runtime, side) / secs if search == "all_pairs" else "-",
                 }
             )
     return rows

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 import pyopencl.cltypes as cltypes
 
-from ..benchmark import seconds_per_step
+from ..benchmark import grid_pairs_2d, seconds_per_step
 from ..buffers import PingPong
 from ..grid import UniformGrid
 from ..runtime import round_up
@@ -417,10 +417,32 @@ def bench_params(n: int, search: str) -> Params:
     return Params(particle_num=n, search=search, range=(16.0 * scale, 9.0 * scale), ball_radius=5.0 * scale)
 
 
+PAIR_TEST_FLOPS = 11
+"""One pair tested by both DensityCS and ForceCS (or their _grid twins): in each, diff = x_j - x_i (2) and
+dot(diff, diff) (3); DensityCS also adds the term to its sum (1; 0 outside h). Flop convention of the benches: an
+FMA is 2, sqrt and a division 1 each, compares and fmax 0."""
+
+PAIR_SUM_FLOPS = 27
+"""What a pair inside h adds to its tests: calculate_density (4); in force_term sqrt (1), calculate_grad_pressure
+with the mean pressure and its sum (13) and calculate_lap_velocity with its sum (9)."""
+
+
+def pair_flops(positions, h: float, origin, cell_size: float, dims, all_pairs: bool) -> float:
+    """Flops of one sub-step's DensityCS + ForceCS (or their _grid twins) at these positions: PAIR_TEST_FLOPS per
+    pair the kernels test (all N(N-1), or the grid's 3x3-cell candidates) and PAIR_SUM_FLOPS per pair within h."""
+    i, j = grid_pairs_2d(positions, origin, cell_size, dims)
+    d = positions[i] - positions[j]
+    within = int(np.count_nonzero(np.einsum("ij,ij->i", d, d) < np.float64(h) ** 2))
+    n = len(positions)
+    tests = n * (n - 1) if all_pairs else len(i)
+    return float(PAIR_TEST_FLOPS * tests + PAIR_SUM_FLOPS * within)
+
+
 def bench(runtime, sizes=None) -> list[dict]:
     """ms per frame (4 sub-steps) and particle sub-steps/s for the book's all-pairs loops and the uniform grid, from
     the scene's start (box and disc scaled with N to keep the number density); pair tests/s = 2 N^2 per sub-step
-    (all pairs); speed-up = grid over all pairs at the same N."""
+    (all pairs); speed-up = grid over all pairs at the same N; pair flop/s = pair_flops (tests and pairs within h
+    counted on the host at the state the timed frames end in) per second."""
     sizes = sizes or ([8192, 32768, 262144] if runtime.is_gpu else [8192, 32768])
     rows = []
     for n in sizes:
@@ -430,6 +452,10 @@ def bench(runtime, sizes=None) -> list[dict]:
             seconds = seconds_per_step(sim, min_seconds=1.0, max_steps=20)
             per_frame[search] = seconds
             substeps = sim.params.iterations
+            grid = sim.grid()  # the grid kernels' cells (cell >= h); for all pairs it only finds the pairs within h
+            positions = sim.particles_array()["position"].astype(np.float64)
+            flops = pair_flops(positions, sim.params.smoothlen, grid.origin, grid.cell_size, grid.dims,
+                               search == "all_pairs")  # fmt: skip
             rows.append(
                 {
                     "N": n,
@@ -438,6 +464,7 @@ def bench(runtime, sizes=None) -> list[dict]:
                     "particle-steps/s": n * substeps / seconds,
                     "pair tests/s": 2.0 * n * n * substeps / seconds if search == "all_pairs" else "-",
                     "speed-up": f"{per_frame['all_pairs'] / seconds:.1f}x" if search == "grid" else "1x",
+                    "pair flop/s": flops * substeps / seconds,
                 }
             )
     return rows

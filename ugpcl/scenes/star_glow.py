@@ -419,12 +419,35 @@ class Simulation(BaseSimulation):
         }
 
 
+TEXEL_BYTES = 16
+"""One float4 texel of every StarGlow image (src, bright, the streak layers, comp, dst)."""
+
+
+def frame_bytes(W: int, H: int, w: int, h: int, streaks: int, iteration: int, variant: str) -> int:
+    """Least memory traffic of one StarGlow frame (Simulation.star_glow), TEXEL_BYTES per texel read or written,
+    taps that overlap a texel read before counted once (from cache):
+      Brightness: 4 bilinear taps of src per small texel (distinct when divide >= 2), bright written: 5 w h;
+      book: comp cleared (w h); per direction, each of the `iteration` Streak passes reads its input and writes its
+        output (2 w h), ScreenAccumulate reads in and comp and writes comp (3 w h);
+      fused: StreakAllDirections passes 1 .. iteration-1 read the input (bright once: w h; then n layers) and write
+        n layers; StreakAccumulate reads its input the same way and writes comp (w h);
+      Composite: src read and dst written (2 W H) and comp read (w h)."""
+    small, n = w * h, streaks
+    if variant == "book":
+        streak_bytes = small + n * (2 * iteration * small + 3 * small)
+    else:
+        passes = [small if k == 0 else n * small for k in range(iteration)]  # what each pass reads
+        streak_bytes = sum(read + n * small for read in passes[:-1]) + passes[-1] + small
+    return TEXEL_BYTES * (5 * small + streak_bytes + 2 * W * H + small)
+
+
 def bench(runtime, sizes=None) -> list[dict]:
     """ms per frame of the StarGlow passes (source fixed; brightness to composite, the queue finished after each
     frame) for the book's per-pass launches and the fused variant, at the spec's two workloads (W, H, divide, N,
     iteration) = (1920, 1080, 7, 5, 2) and (3840, 2160, 3, 8, 4); beside it the streaks alone on the CPU: the brightness
     image filtered with one direction's line kernel a^d, d < 4^iteration (cv2.filter2D where opencv is installed,
     else scipy.ndimage.convolve), timed for one direction and multiplied by N; and the GL passes (EGL) if available.
+    frame bytes/s: the OpenCL variant's least traffic (frame_bytes) per second (the CPU and GL rows: -).
     sizes: ignored (the two workloads are the spec's)."""
     rows = []
     for W, H, divide, n, iteration in ((1920, 1080, 7, 5, 2), (3840, 2160, 3, 8, 4)):
@@ -433,13 +456,18 @@ def bench(runtime, sizes=None) -> list[dict]:
         for variant in ("book", "fused"):
             sim = Simulation(runtime, Params(**common, attenuation=0.95, threshold=1.0, variant=variant), seed=0)
             sim.frame = sim.star_glow  # time the post effect, not the demo's ray casting
-            rows.append({**label, "path": f"OpenCL {variant}", "ms/frame": seconds_per_step(sim, max_steps=30) * 1e3})
+            seconds = seconds_per_step(sim, max_steps=30)
+            traffic = frame_bytes(sim.W, sim.H, sim.w, sim.h, n, iteration, variant)
+            rows.append(
+                {**label, "path": f"OpenCL {variant}", "ms/frame": seconds * 1e3, "frame bytes/s": traffic / seconds}
+            )
         bright, kernel = sim.bright.get(), streak_line_kernel(0.95, iteration, (1.0, 0.0))
         name, seconds = _line_filter_seconds(bright, kernel)
-        rows.append({**label, "path": f"{name} (CPU, one direction x N)", "ms/frame": seconds * n * 1e3})
+        rows.append({**label, "path": f"{name} (CPU, one direction x N)", "ms/frame": seconds * n * 1e3,
+                     "frame bytes/s": "-"})  # fmt: skip
         gl = _gl_seconds(sim)
         if gl is not None:
-            rows.append({**label, "path": "GL passes (EGL)", "ms/frame": gl * 1e3})
+            rows.append({**label, "path": "GL passes (EGL)", "ms/frame": gl * 1e3, "frame bytes/s": "-"})
     return rows
 
 
