@@ -164,6 +164,24 @@ def test_view_shows_the_two_gradients(runtime, gl):
     assert luminance[bottom, x] + 60 < luminance[top, x], "right quad is not dark bottom -> white top"
 
 
+@pytest.mark.gl
+def test_array_view_draws_the_results_as_cells_coloured_by_value(runtime, gl):
+    from ugpcl.viewer.offscreen import render
+    from ugpcl.viewer.views.compute_intro import HIGH, LOW
+
+    scene = get("compute_intro_array")
+    sim = scene.create(runtime, int_value=2)  # A: 0 2 4 6, B and B_atomic: 2 4 6 8
+    sim.step()
+    pixels = render(scene, sim, (640, 360)).astype(int)
+    cell = 0.65 * 360 / (3.5 * 150 + 30) * 150 - 6  # a cell's side at this size (the panel fills 65 % of the height)
+
+    def cells_of(colour) -> float:
+        return (np.abs(pixels - colour).sum(axis=-1) < 12).sum() / cell**2
+
+    assert 0.6 < cells_of(LOW) < 1.2, "one cell (A[0] = 0) in the lowest colour"
+    assert 1.2 < cells_of(HIGH) < 2.4, "two cells (B[3] = B_atomic[3] = 8) in the highest colour"
+
+
 @pytest.mark.oclgrind
 def test_kernels_on_oclgrind(oclgrind):
     sim = Simulation(oclgrind, Params(tex_width=20, tex_height=12, local_size=(8, 4)))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import moderngl
 import numpy as np
+from PIL import Image, ImageDraw, ImageFont
 
 from ..camera import OrbitCamera
 from ..gl import TextOverlay, load_program, set_camera
@@ -15,6 +16,40 @@ QUADS = {"tex_a": -1.0, "tex_b": 1.0}
 LOCAL_SHAPES = ((8, 8), (16, 16), (64, 1), (1, 64))
 """numthreads shapes the [ and ] keys cycle through."""
 MODES = ("texture", "array", "probe")
+ARRAY_ROWS = (
+    ("KernelFunction_A", "array_after_a"),
+    ("KernelFunction_B", "array_after_b"),
+    ("KernelFunction_B_atomic", "array_after_b_atomic"),
+)
+"""The array sample's three results, in the book's Debug.Log order: one row of cells each."""
+CELL = 150
+"""Side in pixels of one cell of the array panel (drawn at 1280x720 about as large)."""
+LOW, HIGH = np.array([40, 60, 150]), np.array([255, 200, 40])
+"""Cell colours of the smallest and the largest value shown (a value's colour is the mix between them)."""
+
+
+def array_panel(state) -> Image.Image:
+    """The array sample as a picture: each kernel's label, then its 4 ints as cells coloured by value and headed
+    by their index, on a translucent panel (RGBA, top row first)."""
+    font = ImageFont.load_default(size=34)
+    label_width = int(max(font.getlength(label) for label, _ in ARRAY_ROWS)) + 40
+    width, height = label_width + 4 * CELL + 30, (len(ARRAY_ROWS) + 0.5) * CELL + 30
+    image = Image.new("RGBA", (width, int(height)), (0, 0, 0, 140))
+    draw = ImageDraw.Draw(image)
+    values = np.concatenate([np.asarray(state[key]) for _, key in ARRAY_ROWS])
+    low, span = values.min(), max(values.max() - values.min(), 1)
+    for i in range(4):
+        draw.text((label_width + (i + 0.5) * CELL, 15 + CELL // 4), f"[{i}]", font=font, anchor="mm", fill="white")
+    for row, (label, key) in enumerate(ARRAY_ROWS):
+        top = 15 + CELL // 2 + row * CELL
+        draw.text((20, top + CELL // 2), label, font=font, anchor="lm", fill="white")
+        for i, value in enumerate(np.asarray(state[key])):
+            colour = tuple(int(c) for c in LOW + (HIGH - LOW) * (value - low) / span)
+            box = (label_width + i * CELL + 6, top + 6, label_width + (i + 1) * CELL - 6, top + CELL - 6)
+            draw.rectangle(box, fill=(*colour, 255), outline="white", width=3)
+            ink = "black" if sum(colour) > 400 else "white"
+            draw.text(((box[0] + box[2]) / 2, (box[1] + box[3]) / 2), str(value), font=font, anchor="mm", fill=ink)
+    return image
 
 
 class View(BaseView):
@@ -39,6 +74,11 @@ class View(BaseView):
         self.vao = ctx.vertex_array(self.program, [(self.vbo, "3f 2f", "in_position", "in_uv")])
         self.textures: dict[str, moderngl.Texture] = {}
         self.text = TextOverlay(ctx, font_size=18)
+        self.panel_program = load_program(ctx, "overlay")
+        self.panel_vbo = ctx.buffer(np.array([0, 0, 1, 0, 0, 1, 1, 1], "f4").tobytes())
+        self.panel_vao = ctx.vertex_array(self.panel_program, [(self.panel_vbo, "2f", "in_corner")])
+        self.panel: moderngl.Texture | None = None
+        self.panel_state: tuple = ()
 
     def make_camera(self):
         # book: camera at (0, 1, -3) looking along +z, FOV 60
@@ -58,6 +98,14 @@ class View(BaseView):
                 self.textures[name] = texture
             texture.write(pixels.tobytes())  # row 0 = bottom, as GL expects
         self.text.set_lines(self._text_lines(state))
+        if "array_after_a" in state:
+            key = tuple(tuple(np.asarray(state[k]).tolist()) for _, k in ARRAY_ROWS)
+            if key != self.panel_state:
+                image = array_panel(state).transpose(Image.Transpose.FLIP_TOP_BOTTOM)  # GL rows start at the bottom
+                if self.panel is not None:
+                    self.panel.release()
+                self.panel = self.ctx.texture(image.size, 4, image.tobytes())
+                self.panel_state = key
 
     def _text_lines(self, state) -> list[str]:
         if self.mode == "array" and "array_after_a" in state:
@@ -96,7 +144,23 @@ class View(BaseView):
                     self.textures[name].use(0)
                     self.vao.render(moderngl.TRIANGLE_STRIP)
         else:
+            if self.mode == "array" and self.panel is not None:
+                self._draw_panel()
             self.text.draw(self.ctx.viewport[2:], corner="top-left")
+
+    def _draw_panel(self) -> None:
+        """The array panel centred below the log, scaled to 80 % of the width or 65 % of the height."""
+        w, h = self.panel.size
+        vw, vh = self.ctx.viewport[2:]
+        scale = min(0.8 * vw / w, 0.65 * vh / h)
+        sw, sh = 2 * w * scale / vw, 2 * h * scale / vh  # clip-space size
+        self.panel_program["rect"].value = (-sw / 2, -0.92, sw, sh)  # bottom edge just above the frame's
+        self.panel.use(0)
+        self.ctx.enable(moderngl.BLEND)
+        self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        self.ctx.disable(moderngl.DEPTH_TEST)
+        self.panel_vao.render(moderngl.TRIANGLE_STRIP)
+        self.ctx.disable(moderngl.BLEND)
 
     def status(self) -> list[str]:
         tx, ty = self.sim.params.local_size

@@ -189,8 +189,14 @@ class PlaneView(MeshView):
         return camera_at((0.0, 3.0, -5.0), 30.0)  # ParametricPlane.unity: (0, 3, -5), pitched 30 degrees
 
     def png_camera(self):
+        p = self.sim.params
+        if p.surface == "flat":
+            # steep and close: the book's camera sees the planes edge-on, their uv gradient unreadable; the
+            # distance fits the row of copies (a 60-degree field is about 1.5 distances wide at 16:9)
+            span = (2 * self.spacing if p.material == "all" else 0.0) + max(p.width, p.height)
+            return OrbitCamera(target=(0.0, 0.0, 0.0), distance=0.66 * span, pitch=60.0)
         camera = self.make_camera()
-        camera.distance *= 0.55 if self.sim.params.surface != "flat" else 1.0  # the book's shows a small plane
+        camera.distance *= 0.55  # the book's shows a small plane
         return camera
 
     def status(self) -> list[str]:

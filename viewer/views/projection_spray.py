@@ -24,6 +24,14 @@ CAMERAS = {
     "stencil": dict(target=(0.0, 0.0, -1.8), distance=6.5, yaw=-48.0, pitch=22.0),
     "figure": dict(target=(0.0, 0.95, 0.0), distance=2.5, yaw=-25.0, pitch=8.0),
 }
+PICTURE_CAMERAS = {
+    # pulled back and turned: the whole 10-unit cube and the spray 8 units above it (the sample's camera cuts
+    # the cube's bottom and the spray off)
+    "cube_sphere": dict(target=(0.5, -2.0, 0.5), distance=27.0, yaw=-20.0, pitch=25.0),
+    # from the spray's side: the figure and the spray's frustum both in the frame
+    "figure": dict(target=(0.0, 1.0, -1.1), distance=2.3, yaw=-55.0, pitch=10.0),
+}
+"""Cameras of pictures and videos (``png_camera``) where the window's would cut the scene at the frame's edge."""
 BACKGROUNDS = {"cube_sphere": (1.0, 1.0, 1.0)}
 """The sample's main camera clears to white; the other presets keep the suite's background."""
 FRUSTUM_LENGTH = 1.5
@@ -75,6 +83,10 @@ class View(BaseView):
 
     def make_camera(self):
         return OrbitCamera(**CAMERAS[self.sim.params.preset])
+
+    def png_camera(self):
+        preset = self.sim.params.preset
+        return OrbitCamera(**PICTURE_CAMERAS[preset]) if preset in PICTURE_CAMERAS else self.make_camera()
 
     def _build(self) -> None:
         """Vertex arrays and float textures per drawable (again after a reset replaced them)."""

@@ -47,6 +47,8 @@ class View(BaseView):
         self.color_scale = 1.0
         self.saved_gravity = sim.params.gravity if sim.params.gravity != NO_GRAVITY else (0.0, -10.0)
         self.mean_density = 0.0
+        self.picture_rect: tuple[float, float, float, float] | None = None
+        """A fixed rect around the fluid for pictures (``png_camera``); None: the box's."""
 
     def _rect(self) -> tuple[float, float, float, float]:
         """The box plus a margin of range.y / 9 (the book scene's camera: half-height 5.5 around (8, 4.5);
@@ -57,6 +59,20 @@ class View(BaseView):
 
     def make_camera(self):
         return FlatCamera(rect=self._rect())
+
+    def png_camera(self):
+        """Pictures zoom onto the fluid where it fills less than half the box's width and height (the code
+        defaults' disc of radius 0.1 in a 1 x 1 box covers 3 % of it): the particles' bounds down to the floor,
+        plus a margin of a fifth. The rect stays fixed for the camera's life (a video does not jump)."""
+        x0, x1, y0, y1 = self._rect()
+        position = self.sim.particles_array()["position"]
+        (fx0, fy0), (fx1, fy1) = position.min(axis=0), position.max(axis=0)
+        fy0 = 0.0  # the floor the fluid lands on stays in view
+        margin = 0.2 * max(fx1 - fx0, fy1 - fy0)
+        fluid = (max(fx0 - margin, x0), min(fx1 + margin, x1), max(fy0 - margin, y0), min(fy1 + margin, y1))
+        small = fluid[1] - fluid[0] < 0.5 * (x1 - x0) and fluid[3] - fluid[2] < 0.5 * (y1 - y0)
+        self.picture_rect = tuple(map(float, fluid)) if small else None
+        return FlatCamera(rect=self.picture_rect or self._rect())
 
     def upload(self) -> None:
         data = self.sim.particles_array()
@@ -84,7 +100,7 @@ class View(BaseView):
 
     def draw(self, camera) -> None:
         p = self.sim.params
-        camera.rect = self._rect()  # follows a new box size after a reset
+        camera.rect = self.picture_rect or self._rect()  # follows a new box size after a reset
         self.ctx.disable(moderngl.DEPTH_TEST)  # book: ZWrite Off; particles only blend
         if self.show_box:
             self.box.draw(camera)
