@@ -12,7 +12,7 @@ from helpers import first_mismatch, foreground
 
 from ugpcl.cli import main
 from ugpcl.scenes import get
-from ugpcl.scenes.cloth import MAIN_SCENE, Params, Simulation, grid_triangles, spring_pairs
+from ugpcl.scenes.cloth import MAIN_SCENE, SIMULATION_KERNELS, Params, Simulation, grid_triangles, spring_pairs
 
 # {{{ numpy float64 reference, written from the book's Kernels.compute listing
 
@@ -85,8 +85,12 @@ def reference_args(p: Params, sphere=None) -> dict:
 # }}}
 
 
-def make(runtime, res=(16, 16), **overrides) -> Simulation:
-    return Simulation(runtime, Params(res=res, **overrides))
+def make(runtime, res=(16, 16), kernel=None, **overrides) -> Simulation:
+    """A cloth of res particles; kernel picks the substep's kernel (default: the one the device gets)."""
+    sim = Simulation(runtime, Params(res=res, **overrides))
+    if kernel is not None:
+        sim.simulation_kernel = kernel
+    return sim
 
 
 def perturbed(width: int, height: int, rest: float, seed: int, amount: float = 0.2):
@@ -136,11 +140,14 @@ def test_buffers_are_float4_rows_of_w(runtime):
 # {{{ CSSimulation against the reference (check 3)
 
 
+# both substep kernels on every device: the book's work-item per particle and the CPU's 16 lanes per work-item
+# (17 and 33 wide: a row's last work-item holds 1 particle; 2 and 15: fewer than 16)
+@pytest.mark.parametrize("kernel", SIMULATION_KERNELS)
 @pytest.mark.parametrize("res", [(2, 2), (15, 15), (16, 16), (17, 17), (33, 7)])
-def test_cs_simulation_matches_reference(runtime, res, seed):
+def test_cs_simulation_matches_reference(runtime, res, kernel, seed):
     width, height = res
     rest = 0.05
-    sim = make(runtime, res, rest_length=rest, timestep=0.005, substeps=1, stiffness=1e4)
+    sim = make(runtime, res, kernel, rest_length=rest, timestep=0.005, substeps=1, stiffness=1e4)
     pos, prev = perturbed(width, height, rest, seed)
     sim.set_positions(pos, prev)
     # a sphere overlapping the cloth's lower half: some particles end inside it and are pushed out
@@ -168,11 +175,39 @@ def test_cs_simulation_matches_reference(runtime, res, seed):
         assert moved.max() > 1e-4, "the sphere and springs should move some particles measurably"
 
 
-def test_live_parameters_and_a_new_sphere_reach_the_next_substep(runtime, seed):
+@pytest.mark.parametrize("variant", ["fixed", "book"])
+def test_both_substep_kernels_agree(runtime, variant, seed):
+    """CSSimulation and CSSimulation_cpu on a 50 x 37 cloth (4 lane groups per row, the last with 2 particles),
+    4 substeps through a sphere: the same sums in the same order, equal up to float rounding."""
+    width, height, rest = 50, 37, 0.05
+    sims = [make(runtime, (width, height), k, rest_length=rest, variant=variant) for k in SIMULATION_KERNELS]
+    pos, prev = perturbed(width, height, rest, seed)
+    for sim in sims:
+        sim.set_positions(pos, prev)
+        sim.sphere_params = np.array([0.1, -0.4, 0.05, 0.5], np.float32)
+        sim.step()
+    a, b = (sim.state() for sim in sims)
+    for key in ("pos", "prev_last"):
+        np.testing.assert_allclose(a[key], b[key], rtol=1e-6, atol=1e-6, err_msg=key)
+    # a normal may flip where two ring directions are 90 degrees apart to rounding (cloth_step_reference's mask)
+    assert np.mean(np.abs(a["normal"] - b["normal"]).max(axis=-1) < 1e-4) > 0.99
+    assert np.abs(a["pos"] - pos).max() > 1e-3, "the substeps should move the cloth"
+
+
+def test_substep_kernel_is_chosen_by_device_type(runtime):
+    sim = make(runtime, (20, 20))
+    expected = "CSSimulation" if runtime.is_gpu else "CSSimulation_cpu"  # the fixture's devices: PoCL or a GPU
+    assert sim.stats()["CSSimulation kernel"] == expected == sim.simulation_kernel
+    with pytest.raises(ValueError, match="simulation_kernel must be one of CSSimulation\\|CSSimulation_cpu"):
+        sim.simulation_kernel = "CSSimulationCPU"
+
+
+@pytest.mark.parametrize("kernel", SIMULATION_KERNELS)
+def test_live_parameters_and_a_new_sphere_reach_the_next_substep(runtime, kernel, seed):
     """CSSimulation's scalar arguments are made once per Params object and sphere array: an update() of live
     fields, or a new sphere_params, must still reach the very next launch (checked against the reference)."""
     width, height, rest = 15, 11, 0.05
-    sim = make(runtime, (width, height), rest_length=rest, timestep=0.005, substeps=1)
+    sim = make(runtime, (width, height), kernel, rest_length=rest, timestep=0.005, substeps=1)
     pos, prev = perturbed(width, height, rest, seed)
     sim.set_positions(pos, prev)
     sim.cs_simulation()
@@ -191,8 +226,9 @@ def test_live_parameters_and_a_new_sphere_reach_the_next_substep(runtime, seed):
         )
 
 
-def test_collision_pushes_particles_to_the_sphere_surface(runtime):
-    sim = make(runtime, (16, 16), rest_length=0.05, timestep=0.005, substeps=1, gravity=(0.0, 0.0, 0.0))
+@pytest.mark.parametrize("kernel", SIMULATION_KERNELS)
+def test_collision_pushes_particles_to_the_sphere_surface(runtime, kernel):
+    sim = make(runtime, (16, 16), kernel, rest_length=0.05, timestep=0.005, substeps=1, gravity=(0.0, 0.0, 0.0))
     sim.sphere_params = np.array([0.0, -0.1, 0.05, 0.3], np.float32)  # centre just behind the flat cloth
     sim.cs_simulation()
     pos = sim.state()["pos"][:-1]
@@ -208,8 +244,9 @@ def test_collision_pushes_particles_to_the_sphere_surface(runtime):
 # {{{ invariants (checks 4, 6, 7, 8 and the golden run, check 5)
 
 
-def test_rest_state_stays_at_rest(runtime):
-    sim = make(runtime, (16, 16), rest_length=0.05, gravity=(0.0, 0.0, 0.0), sphere=False, timestep=0.02)
+@pytest.mark.parametrize("kernel", SIMULATION_KERNELS)
+def test_rest_state_stays_at_rest(runtime, kernel):
+    sim = make(runtime, (16, 16), kernel, rest_length=0.05, gravity=(0.0, 0.0, 0.0), sphere=False, timestep=0.02)
     init = sim.state()["pos"]
     for _ in range(100):  # 100 frames x 4 substeps = 400 substeps
         sim.step()
@@ -317,7 +354,8 @@ def test_frames_of_substeps_equal_single_substeps(runtime, seed):
     assert not np.array_equal(a.read("pos_write"), a.read("pos"))
 
 
-def test_frames_with_a_sweeping_sphere_match_the_reference(runtime):
+@pytest.mark.parametrize("kernel", SIMULATION_KERNELS)
+def test_frames_with_a_sweeping_sphere_match_the_reference(runtime, kernel):
     """Checks 3 and 8 together through the scene's own step(): 8 frames of 4 substeps while the sphere (placed by
     the wrapper at the book's ColliderTranslate position for each frame) sweeps into the hanging cloth, against
     cloth_step_reference fed with the sphere computed here. Later the draped cloth amplifies float32 rounding
@@ -326,6 +364,7 @@ def test_frames_with_a_sweeping_sphere_match_the_reference(runtime):
     sim = make(
         runtime,
         (16, 16),
+        kernel,
         rest_length=0.05,
         timestep=0.02,
         sphere_scale=0.5,
@@ -364,10 +403,12 @@ def test_mass_scales_gravity_as_the_book_unless_physical(runtime):
     assert first_drop(mass=2.0, physical_gravity=True) == pytest.approx(drop, rel=1e-3)
 
 
-def test_coincident_particles_nan_in_book_variant_only(runtime):
+@pytest.mark.parametrize("kernel", SIMULATION_KERNELS)
+def test_coincident_particles_nan_in_book_variant_only(runtime, kernel):
     pos = init_reference(6, 6, 0.05)
     pos[2, 3] = pos[2, 2]  # two particles on top of each other: a spring of length 0
-    fixed, book = make(runtime, (6, 6), rest_length=0.05), make(runtime, (6, 6), rest_length=0.05, variant="book")
+    fixed = make(runtime, (6, 6), kernel, rest_length=0.05)
+    book = make(runtime, (6, 6), kernel, rest_length=0.05, variant="book")
     for sim in (fixed, book):
         sim.set_positions(pos)
         sim.step()
@@ -608,12 +649,15 @@ def test_view_keys_change_the_simulation(runtime, gl):
 
 
 @pytest.mark.oclgrind
-def test_kernels_on_oclgrind(oclgrind, runtime, seed):
-    """CSInit and CSSimulation on a 9 x 6 cloth in 4 x 4 groups (padding in both axes), sphere overlapping."""
+@pytest.mark.parametrize("kernel", SIMULATION_KERNELS)
+def test_kernels_on_oclgrind(oclgrind, runtime, kernel, seed):
+    """CSInit and CSSimulation (CSSimulation_cpu) on a 9 x 6 cloth in 4 x 4 groups (padding in both axes; one
+    work-item of 16 lanes per row, 9 used), sphere overlapping."""
     results = {}
     for name, rt in (("oclgrind", oclgrind), ("pocl", runtime)):
         for variant in ("fixed", "book"):
             sim = Simulation(rt, Params(res=(9, 6), rest_length=0.05, num_threads_xy=4, variant=variant))
+            sim.simulation_kernel = kernel
             pos, prev = perturbed(9, 6, 0.05, seed)
             sim.set_positions(pos, prev)
             sim.sphere_params = np.array([0.0, -0.05, 0.03, 0.1], np.float32)

@@ -8,6 +8,10 @@ after each launch. ``reset()`` runs ``CSInit`` and copies both pairs, as the boo
 ``step(dt)``'s dt is the frame's duration (1/fps): it drives the sphere only; the cloth always advances
 ``timestep`` per frame, as the book's fixed TimeStep.
 
+On a CPU device (PoCL) the substep runs ``CSSimulation_cpu`` instead of the book's ``CSSimulation``: 16 particles of a
+row per work-item in the lanes of float16 vectors, the same arithmetic (PoCL's work-group vectorizer gives up on
+CSSimulation's per-neighbour branches); ``stats()["CSSimulation kernel"]`` and the bench say which ran.
+
 Differences from the book: sizes need not be multiples of the work-group edge; the pinned row copies itself to
 the write buffers; ``variant=fixed`` (default) guards the book's two ``normalize(0)`` cases (coincident particles;
 a crumpled ring whose consecutive directions are all >= 90 degrees apart keeps its previous normal), ``variant=book``
@@ -40,6 +44,10 @@ DIVERGED = "yes: positions are NaN/inf; lower timestep or stiffness, or raise su
 """What stats() and the view say once the explicit integration has blown up."""
 MAX_PARTICLES = 1 << 22
 """Cap on W*H (4M particles: 320 MB of float4 buffers)."""
+CPU_LANES = 16
+"""Particles of a row per work-item of CSSimulation_cpu (CPU_LANES in clkernels/cloth.cl)."""
+SIMULATION_KERNELS = ("CSSimulation", "CSSimulation_cpu")
+"""The substep's two kernels: the book's one work-item per particle, and the CPU's vector lanes."""
 
 
 @dataclass(frozen=True)
@@ -141,7 +149,10 @@ class Simulation(BaseSimulation):
         self.normal = rt.zeros(shape, np.float32)  # book: _normBuff
         self.global_size = (round_up(self.width, self.block), round_up(self.height, self.block))
         self.local_size = (self.block, self.block)
-        self._simulation = self.program.kernel("CSSimulation")
+        # the substep's kernel (tests may set the other): PoCL does not vectorize the book's kernel across
+        # work-items, so CPU devices get the vector-lane one; Oclgrind keeps the book's kernel to check it
+        cpu = bool(rt.device.type & cl.device_type.CPU) and not rt.is_oclgrind
+        self.simulation_kernel = "CSSimulation_cpu" if cpu else "CSSimulation"
         self._constants_for = None  # the Params object _constants were made from (live fields change it)
         self.sphere_time = 0.0  # the collider's clock: stops while sphere_motion is off
         self.sphere_params = self.collider(self.sphere_time)
@@ -152,6 +163,21 @@ class Simulation(BaseSimulation):
         p = self.params
         z = p.translate_center_z + math.cos(TRANSLATE_SPEED * t) * p.translate_length_z
         return np.array([0.0, 0.0, z, p.collide_radius], np.float32)
+
+    @property
+    def simulation_kernel(self) -> str:
+        """Name of the kernel cs_simulation() launches: CSSimulation or CSSimulation_cpu (settable)."""
+        return self._simulation_name
+
+    @simulation_kernel.setter
+    def simulation_kernel(self, name: str) -> None:
+        if name not in SIMULATION_KERNELS:
+            raise ValueError(f"simulation_kernel must be one of {'|'.join(SIMULATION_KERNELS)}, got {name!r}")
+        self._simulation_name, self._simulation = name, self.program.kernel(name)
+        if name == "CSSimulation_cpu":  # one work-item per CPU_LANES particles of a row, any work-group
+            self._launch = ((-(-self.width // CPU_LANES), self.height), None)
+        else:
+            self._launch = (self.global_size, self.local_size)
 
     # {{{ kernels, in the book's order
 
@@ -195,12 +221,10 @@ class Simulation(BaseSimulation):
         return (*self._constants, self._sphere)
 
     def cs_simulation(self) -> None:
-        """One CSSimulation launch (a substep of timestep / substeps) against the current collider, then swap both
-        ping-pong pairs."""
+        """One CSSimulation launch (CSSimulation_cpu on CPU devices: ``simulation_kernel``), a substep of
+        timestep / substeps against the current collider, then swap both ping-pong pairs."""
         pos, prev = self.pos, self.prev
-        self._simulation(
-            self.global_size, self.local_size, pos.read, prev.read, pos.write, prev.write, self.normal, *self._scalars()
-        )
+        self._simulation(*self._launch, pos.read, prev.read, pos.write, prev.write, self.normal, *self._scalars())
         # swap buffers: the positions just written are read by the next substep
         pos.swap()
         prev.swap()
@@ -261,7 +285,10 @@ class Simulation(BaseSimulation):
         return {
             **super().stats(),
             "particles": f"{self.width} x {self.height}",
-            "work-group": f"{self.block} x {self.block}",
+            "CSSimulation kernel": self.simulation_kernel,
+            "work-group": f"{self.block} x {self.block}"
+            if self.simulation_kernel == "CSSimulation"
+            else f"{CPU_LANES} particles per work-item",
             "substep dt": self.params.substep_dt,
             "sphere": tuple(round(float(v), 4) for v in self.sphere_params),
             "max speed": float(speed.max()),
@@ -327,7 +354,8 @@ def bench(runtime, sizes=None) -> list[dict]:
     """For W = H = each size (main scene: 4 substeps, sphere on): ms per frame (the queue finished after each frame)
     with particle-updates/s (particles x substeps per second) and frames/s; one substep (a CSSimulation launch and
     the ping-pong swap) in us, timed over 20 substeps back to back and one finish, and as the least traffic a
-    substep needs (SUBSTEP_BYTES_PER_PARTICLE) per second."""
+    substep needs (SUBSTEP_BYTES_PER_PARTICLE) per second. ``kernel`` names the substep's kernel (CSSimulation_cpu
+    on CPU devices)."""
     sizes = sizes or ([64, 128, 256, 512] if runtime.is_gpu else [64, 128, 256])
     rows = []
     for n in sizes:
@@ -340,6 +368,7 @@ def bench(runtime, sizes=None) -> list[dict]:
                 "res": f"{n}x{n}",
                 "particles": n * n,
                 "substeps": sim.params.substeps,
+                "kernel": sim.simulation_kernel,
                 "ms/frame": seconds * 1e3,
                 "us/substep": substep * 1e6,
                 "particle-updates/s": updates / seconds,
