@@ -2,20 +2,23 @@
 // with atmosphere" (docs/chapters/07-marching-cubes.md). The book runs everything in a geometry shader (one GS
 // invocation per grid cell, GPUMarchingCubesRenderMesh.shader); these kernels do the same work per cell for headless
 // meshes.
-// Kernels, in host call order per frame:
+// Kernels, in host call order per frame (CPU devices, PoCL, run each *_cpu twin instead: the same work for a run of
+// CPU_LANES cells or grid points along x per work-item in the lanes of float8 vectors on a 3-D NDRange, so PoCL calls
+// its vectorised exp/log/sqrt and skips eight empty cells with one test; its work-group vectoriser leaves the one-cell
+// kernels' libm calls, integer divisions and table loops scalar):
 //   1. SampleField           -> field[(N+1)^3]: the book's Sample(x, y, z) at every grid point (index x + (N+1)*(y +
 //                               (N+1)*z)), evaluated once instead of 8 times per cell as the GS does
+//      SampleField_cpu       (the spheres in vector lanes; the kaiware lane by lane)
 //   2. PolygonizeAppend      field -> triangles + counter: one work-item per cell appends its 0..5 triangles to the
 //                               shared Pool (pool.h: atomic_inc, clamped at capacity, refusals counted)
+//      PolygonizeAppend_cpu
 //   or the deterministic two-pass path:
 //   2a. ClassifyCells        field -> cell_ntri[N^3]: triangles per cell
+//       ClassifyCells_cpu
 //   2b. ScanBlocks, AddBlockOffsets  cell_ntri -> cell_off[N^3]: exclusive prefix sum (per work-group in __local
 //                               memory, block sums scanned recursively by the host)
 //   2c. GenerateTriangles    field, cell_ntri, cell_off -> triangles[cell_off[cell] ...]: output in cell order
-// CPU devices (PoCL) run SampleField_cpu, PolygonizeAppend_cpu, ClassifyCells_cpu and GenerateTriangles_cpu instead:
-// the same work for a run of CPU_LANES cells (grid points) along x per work-item in the lanes of float8 vectors, on a
-// 3-D NDRange (no integer division per cell), so PoCL calls its vectorised exp/log/sqrt and skips eight empty cells
-// with one test (its work-group vectoriser leaves the scalar kernels' libm calls and table loops scalar).
+//       GenerateTriangles_cpu
 // Build defines: SCAN_BLOCK_SIZE = work-group size of ScanBlocks (a power of two; 256); SHAPE = SHAPE_SPHERES (0) or
 //   SHAPE_KAIWARE (1): the field (a define: a program holds one field's code and tests no shape per sample).
 // Arguments shared by the field and normal code: N (book: _SegmentNum), radius.xyz = the three
