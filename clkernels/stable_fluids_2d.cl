@@ -30,8 +30,6 @@
 //                        everywhere, so B(DivPositive) would change nothing; fixed: also divergence = div, pressure = 0
 //   ProjectStep2         book: prev_in -> prev_out, fixed: pressure_in, divergence -> pressure_out: one Jacobi sweep
 //                        of the Poisson equation for p +B(DivPositive)
-//   ProjectStep2x2       fixed, on GPUs: two ProjectStep2 sweeps per launch through __local memory (the same values,
-//                        bit for bit; half the memory traffic per sweep), the walls inside the launch's own tiles
 //   ProjectStep3         velocity -= 0.5*(p(+1) - p(-1))*(w | h) per axis (own cell, in place); fixed: prev.x = p
 //   SetBoundaryVelocity  after ProjectStep3 (in place: its walls would read cells other work-items write)
 //   SwapVelocity         prev.xy = velocity (a one-way copy despite the name, as the book)
@@ -342,68 +340,6 @@ void ProjectStep2(const __global float* pressure_in, __global float* pressure_ou
 #endif
 #undef PRESSURE_AT
 }
-
-#if !BOOK_VARIANT
-// 4b. ProjectStep2x2: two ProjectStep2 sweeps per launch. Global memory is read once (p and the divergence) and
-// written once (the second sweep's p) for two sweeps: a sweep is memory-bound at 12 bytes per cell, so this halves
-// its traffic. Each work-group owns a THREAD_X x THREAD_Y tile; local cell (i, j) is grid cell (x0 + i, y0 + j) with
-// the tile at rings >= SWEEP_APRON. p is loaded on rings >= 0, the first sweep runs on rings >= 1 (its stencil reads
-// ring 0), the second on rings >= 2, and the tile (ring 3) is written. A wall cell of a sweep copies its inner cell's
-// new value (SetBoundaryDivPositive); for a tile inside the grid that cell is on the same ring or nearer the tile.
-// The arithmetic is pressure_at's in its order and wall_copy's, so the result equals two ProjectStep2 launches.
-#define SWEEP_APRON 3
-#define SWEEP_LX (THREAD_X + 2 * SWEEP_APRON)
-#define SWEEP_LY (THREAD_Y + 2 * SWEEP_APRON)
-
-// One sweep from src to dst on the cells of rings >= r: interior cells first, then (after a barrier) the walls from
-// the interior's new values; 0 outside the grid and for a wall whose inner cell is off the rings (a tile past the grid).
-INLINE void local_sweep(__local float (*src)[SWEEP_LX], __local float (*dst)[SWEEP_LX],
-                        const __global float* divergence, int x0, int y0, int w, int h, int r) {
-    const int lx = get_local_id(0), ly = get_local_id(1);
-    for (int j = r + ly; j < SWEEP_LY - r; j += THREAD_Y) {
-        for (int i = r + lx; i < SWEEP_LX - r; i += THREAD_X) {
-            const int x = x0 + i, y = y0 + j;
-            if (is_interior(x, y, w, h)) {
-                const float sum = src[j][i - 1] + src[j][i + 1] + src[j - 1][i] + src[j + 1][i];
-                dst[j][i] = (divergence[y * w + x] + sum) / 4.0f;
-            } else {
-                dst[j][i] = 0.0f;  // a wall (set below) or a cell past the grid
-            }
-        }
-    }
-    barrier(CLK_LOCAL_MEM_FENCE);  // the interior's values before the walls copy them
-    for (int j = r + ly; j < SWEEP_LY - r; j += THREAD_Y) {
-        for (int i = r + lx; i < SWEEP_LX - r; i += THREAD_X) {
-            const int x = x0 + i, y = y0 + j;
-            if (x < 0 || y < 0 || x >= w || y >= h || is_interior(x, y, w, h)) continue;
-            const int2 in = inner_cell(x, y, w, h);
-            const int ii = i + in.x - x, jj = j + in.y - y;
-            const bool on_rings = ii >= r && jj >= r && ii < SWEEP_LX - r && jj < SWEEP_LY - r;
-            dst[j][i] = on_rings ? wall_copy(x, y, in, dst[jj][ii]) : 0.0f;  // a wall reads an interior cell only
-        }
-    }
-    barrier(CLK_LOCAL_MEM_FENCE);  // the sweep complete before the next reads it
-}
-
-__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, 1)))
-void ProjectStep2x2(const __global float* pressure_in, __global float* pressure_out, const __global float* divergence,
-                    int w, int h) {
-    __local float p[SWEEP_LY][SWEEP_LX], first[SWEEP_LY][SWEEP_LX], second[SWEEP_LY][SWEEP_LX];
-    const int lx = get_local_id(0), ly = get_local_id(1);
-    const int x0 = get_group_id(0) * THREAD_X - SWEEP_APRON, y0 = get_group_id(1) * THREAD_Y - SWEEP_APRON;
-    for (int j = ly; j < SWEEP_LY; j += THREAD_Y) {
-        for (int i = lx; i < SWEEP_LX; i += THREAD_X) {
-            const int x = x0 + i, y = y0 + j;
-            p[j][i] = x >= 0 && y >= 0 && x < w && y < h ? pressure_in[y * w + x] : 0.0f;
-        }
-    }
-    barrier(CLK_LOCAL_MEM_FENCE);  // the tile's p before the first sweep reads it
-    local_sweep(p, first, divergence, x0, y0, w, h, 1);
-    local_sweep(first, second, divergence, x0, y0, w, h, 2);
-    const int x = get_global_id(0), y = get_global_id(1);
-    if (x < w && y < h) pressure_out[y * w + x] = second[ly + SWEEP_APRON][lx + SWEEP_APRON];
-}
-#endif
 
 // 5. Projection step 3: subtract the gradient of p (central differences, in cells scaled by the grid size). fixed:
 // p from its float field, copied into prev.x, so prev holds (p, div) afterwards as the book's does.

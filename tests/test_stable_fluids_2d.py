@@ -307,10 +307,6 @@ def test_boundary_kernels_are_exact(runtime, seed, variant):
     f = {k: v.astype(np.float32) for k, v in random_fields(rng).items()}
     sim.set_fields(**f)
     sim.set_boundary_density()
-    if variant == "fixed":  # ProjectStep2x2 on a grid of three tiles a row, the last one partly past the grid
-        sim.fused_sweeps = True
-        sim.project_step2(2)
-        assert np.isfinite(sim.pressure.read.get()).all()
     sim.set_boundary_velocity()
     sim.set_boundary_div_positive()
     s = sim.state()
@@ -411,25 +407,6 @@ def test_whole_steps_match_the_books_order(runtime, seed, overrides):
         for key in ("velocity", "density", "prev"):
             scale = max(np.abs(expected[key]).max(), 1e-3)
             close(s[key], expected[key], 0, 1e-5 * scale)  # float32 rounding through ~50 launches
-
-
-@pytest.mark.parametrize(
-    "size, local_size",
-    [((37, 29), (8, 4)), ((64, 64), (32, 32)), ((33, 70), (16, 1)), ((100, 41), (1, 8)), ((3, 3), (4, 4))],
-)
-def test_two_sweeps_per_launch_equal_two_launches(runtime, size, local_size):
-    """ProjectStep2x2 (what GPUs run) gives ProjectStep2's pressure bit for bit, walls included, whatever the tiles'
-    shape and however the grid ends inside them; an odd sweep count ends with one ProjectStep2."""
-    pressures = []
-    for fused in (False, True):
-        sim = make(runtime, *size, local_size=local_size, stroke="circle", stroke_frames=0)
-        sim.fused_sweeps = fused
-        for _ in range(3):
-            sim.step()
-        sim.project_step2(5)
-        pressures.append(sim.pressure.read.get())
-    assert np.abs(pressures[0]).max() > 0 or size == (3, 3)
-    np.testing.assert_array_equal(pressures[1], pressures[0])
 
 
 def test_a_step_is_22_launches_and_the_kernel_file_lists_them_in_order(runtime, monkeypatch):

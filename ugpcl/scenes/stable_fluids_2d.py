@@ -53,7 +53,6 @@ KERNELS = (
     "DiffuseVelocity",
     "ProjectStep1",
     "ProjectStep2",
-    "ProjectStep2x2",
     "ProjectStep3",
     "SetBoundaryVelocity",
     "SwapVelocity",
@@ -68,10 +67,7 @@ KERNELS = (
     "SetBoundaryDivergence",
     "SetBoundaryDivPositive",
 )
-"""The kernels of stable_fluids_2d.cl in host call order (its header's list); the last three only for set_boundary_*,
-ProjectStep2x2 only in the fixed variant's program."""
-SWEEP_APRON = 3
-"""Cells around a ProjectStep2x2 tile that it loads (SWEEP_APRON in stable_fluids_2d.cl): two sweeps and a wall copy."""
+"""The kernels of stable_fluids_2d.cl in host call order (its header's list); the last three only for set_boundary_*."""
 SETS_WALLS = frozenset(
     {"DiffuseVelocity", "ProjectStep1", "ProjectStep2", "AdvectVelocity", "DiffuseDensity", "AdvectDensity"}
     | {"AdvectDensityFromExt"}
@@ -173,10 +169,6 @@ class Simulation(BaseSimulation):
         self.last_brush: tuple[float, float, float, float] | None = None
         self.stroke_start = 0
         self._config_key = self._configured_for = None  # sizes and kernels follow the grid, local_size, variant
-        # GPUs run the pressure sweeps two per launch (ProjectStep2x2: half the memory traffic per sweep); PoCL gains
-        # nothing from __local tiles: its barriers make them 16x slower (3.2 against 0.2 ms a sweep at 512^2), so CPU
-        # devices keep ProjectStep2 (tests set either).
-        self.fused_sweeps = self.runtime.is_gpu
 
     # {{{ programs and launches
 
@@ -203,13 +195,9 @@ class Simulation(BaseSimulation):
             self._program = self.runtime.program(
                 STEM, THREAD_X=size[0], THREAD_Y=size[1], BOOK_VARIANT=p.variant == "book"
             )
-            names = [name for name in KERNELS if name != "ProjectStep2x2" or p.variant == "fixed"]
             self._launches = {
-                name: (self._program.kernel(name), with_walls if name in SETS_WALLS else grid) for name in names
+                name: (self._program.kernel(name), with_walls if name in SETS_WALLS else grid) for name in KERNELS
             }
-            # ProjectStep2x2's three (THREAD_X + 6) x (THREAD_Y + 6) float tiles must fit the device's local memory
-            tiles = 3 * (size[0] + 2 * SWEEP_APRON) * (size[1] + 2 * SWEEP_APRON) * 4
-            self._can_fuse = p.variant == "fixed" and tiles <= device.local_mem_size
             self._config_key = key
         self._configured_for = p
 
@@ -301,20 +289,9 @@ class Simulation(BaseSimulation):
         ProjectStep1 filled, not on prev."""
         book, (w, h) = self.params.variant == "book", self.dims
         p, extra = (self.prev, ()) if book else (self.pressure, (self.divergence,))
-        sweeps = self.params.gs_iterations if sweeps is None else sweeps
-        if self.fused_sweeps and self._fusable():
-            for _ in range(sweeps // 2):  # ProjectStep2x2: two sweeps per launch
-                self._grid("ProjectStep2x2", p.read, p.write, *extra, w, h)
-                p.swap()
-            sweeps %= 2
-        for _ in range(sweeps):
+        for _ in range(self.params.gs_iterations if sweeps is None else sweeps):
             self._grid("ProjectStep2", p.read, p.write, *extra, w, h)
             p.swap()
-
-    def _fusable(self) -> bool:
-        """Whether ProjectStep2x2 runs here: the fixed variant, its tiles within the device's local memory."""
-        self._configure()
-        return self._can_fuse
 
     def project_step3(self) -> None:
         """ProjectStep3: velocity -= 0.5*grad p*(w, h) (in place, as the book); SetBoundaryVelocity.
@@ -551,27 +528,20 @@ The bench's ``% copy bw`` is this traffic's share of the device's copy bandwidth
 def bench(runtime, sizes=None) -> list[dict]:
     """Per n x n grid (scene coefficients, circle stroke held, gs_iterations 2): ms per step (the whole Update: 2
     diffusions, 2 projections, 2 advections, 22 launches, the queue finished after each step) and cell updates/s
-    (cells x steps/s); one Jacobi sweep of the pressure solve (ProjectStep2 with its walls, one launch; on GPUs
-    ProjectStep2x2, two sweeps a launch: "sweeps/launch") in us, timed over 20 sweeps back to back and one finish as
-    a solve runs them, as sweeps/s and cell updates/s, and as the least traffic one ProjectStep2 sweep needs
-    (JACOBI_BYTES_PER_CELL) per second (two fused sweeps move half of it: their share can pass 100 %)."""
+    (cells x steps/s); one Jacobi sweep of the pressure solve (ProjectStep2 with its walls, one launch) in us, timed
+    over 20 sweeps back to back and one finish as a solve runs them, as sweeps/s and cell updates/s, and as the
+    least traffic a sweep needs (JACOBI_BYTES_PER_CELL) per second."""
     sizes = sizes or ([256, 512, 1024, 2048] if runtime.is_gpu else [256, 512, 1024])
     rows = []
     for n in sizes:
         sim = Simulation(runtime, Params(width=n, height=n, stroke_frames=0), seed=0)
         seconds = seconds_per_step(sim, min_seconds=1.0, max_steps=100)
-        per_launch = 2 if sim.fused_sweeps and sim._fusable() else 1
         sweep = seconds_per_call(
-            lambda sim=sim, k=per_launch: sim.project_step2(k),
-            runtime.queue,
-            max_calls=50 * SWEEP_BATCH // per_launch,
-            batch=SWEEP_BATCH // per_launch,
+            lambda sim=sim: sim.project_step2(1), runtime.queue, max_calls=50 * SWEEP_BATCH, batch=SWEEP_BATCH
         )
-        sweep /= per_launch
         rows.append(
             {
                 "grid": f"{n}^2",
-                "sweeps/launch": per_launch,
                 "ms/step": seconds * 1e3,
                 "cell updates/s": n * n / seconds,
                 "us/Jacobi sweep": sweep * 1e6,
