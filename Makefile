@@ -12,7 +12,7 @@ STAMP := $(VENV)/.installed
 SYSTEM_PACKAGES := pocl-opencl-icd ocl-icd-libopencl1 libegl1 libegl-mesa0 libgl1-mesa-dri xvfb xdotool
 
 .DEFAULT_GOAL := help
-.PHONY: help system-deps venv run test test-oclgrind test-wheel bench view png docs lint clean
+.PHONY: help system-deps venv run test test-oclgrind test-wheel bench view png anim docs lint clean
 
 help: ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-14s %s\n", $$1, $$2}'
@@ -53,8 +53,12 @@ bench: $(STAMP) ## benchmark tables for every chapter on the chosen device
 view: $(STAMP) ## open a scene in a window: make view SCENE=boids
 	$(BIN)/ugpcl-view $(SCENE)
 
-png: $(STAMP) ## regenerate docs/img/<scene>.png for every scene (offscreen)
+png: $(STAMP) ## regenerate docs/img/<scene>.png for every scene (offscreen), then the chapter loops (make anim)
 	$(BIN)/python -m ugpcl.docs images
+	@$(MAKE) --no-print-directory anim
+
+anim: $(STAMP) ## regenerate docs/img/<scene>.webp, the looping animation of each chapter page (offscreen)
+	$(BIN)/python -m ugpcl.docs animations
 
 docs: $(STAMP) ## regenerate the key and parameter tables of docs/chapters/
 	$(BIN)/python -m ugpcl.docs tables

@@ -1,5 +1,5 @@
-"""Recording (viewer/record.py): MP4 through imageio-ffmpeg and PNG sequences, from frames and from
-``ugpcl run --video/--frames`` (offscreen); the files read back with imageio."""
+"""Recording (viewer/record.py): MP4 through imageio-ffmpeg, looping WebP through Pillow and PNG sequences, from
+frames and from ``ugpcl run --video/--frames`` (offscreen); the files read back with imageio and Pillow."""
 
 from __future__ import annotations
 
@@ -35,6 +35,34 @@ def test_an_mp4_holds_every_frame_at_its_size(tmp_path):
         assert np.abs(frame.astype(int) - expected).mean() < 4, f"frame {i} does not show the square where it was"
 
 
+def webp_frames(path) -> tuple[list[np.ndarray], dict]:
+    """Every frame of an animated WebP as (H, W, 3) uint8, and the file's info (loop count, ...)."""
+    with Image.open(path) as image:
+        assert image.format == "WEBP"
+        info = dict(image.info)
+        frames = []
+        for k in range(image.n_frames):
+            image.seek(k)
+            frames.append(np.asarray(image.convert("RGB")))
+            info.setdefault("durations", []).append(image.info.get("duration"))
+    return frames, info
+
+
+def test_a_webp_loops_through_every_frame_at_its_size(tmp_path):
+    path = tmp_path / "clip.webp"
+    with Recorder(path, fps=15) as recorder:
+        for i in range(6):
+            recorder.add(moving_square(i))
+    assert recorder.frames == 6 and [p.name for p in tmp_path.iterdir()] == ["clip.webp"]  # no partial file left
+    frames, info = webp_frames(path)
+    assert len(frames) == 6 and info["loop"] == 0, f"{len(frames)} frames, loop {info.get('loop')}"
+    for i, frame in enumerate(frames):
+        assert frame.shape == (49, 65, 3)  # WebP keeps odd sides (H.264 drops a row and a column)
+        # lossy at quality 70: a flat grey and a white square come back within a few levels on average
+        assert np.abs(frame.astype(int) - moving_square(i)).mean() < 4, f"frame {i} does not show the square there"
+    assert info["durations"][0] in (66, 67), info["durations"]  # 15 fps: 1000/15 ms, whole milliseconds
+
+
 def test_a_png_sequence_holds_every_frame_exactly(tmp_path):
     with Recorder(tmp_path / "frames") as recorder:
         for i in range(3):
@@ -45,8 +73,9 @@ def test_a_png_sequence_holds_every_frame_exactly(tmp_path):
         assert np.array_equal(np.asarray(Image.open(f)), moving_square(i))
 
 
-def test_a_failed_recording_leaves_no_video(tmp_path):
-    path = tmp_path / "clip.mp4"
+@pytest.mark.parametrize("name", ["clip.mp4", "clip.webp"])
+def test_a_failed_recording_leaves_no_video(tmp_path, name):
+    path = tmp_path / name
     with pytest.raises(KeyboardInterrupt), Recorder(path) as recorder:
         recorder.add(moving_square(0))
         raise KeyboardInterrupt
@@ -68,6 +97,22 @@ def test_run_records_a_video_every_k_steps(capsys, tmp_path):
     assert np.abs(frames[0].astype(int) - frames[-1]).max() > 40, "the boids did not move between frames"
 
 
+def test_run_records_a_looping_webp(capsys, tmp_path):
+    video = tmp_path / "boids.webp"
+    code, text = run_cli(
+        capsys, "run", "boids", "--steps", "20", "--every", "5", "--video", str(video), "--png-size", "160x120",
+        "--set", "max_object_num=256", "--out", str(tmp_path / "boids.npz"), "--quiet",
+    )  # fmt: skip
+    assert code == 0, text
+    assert f"wrote {video} (5 frames)" in text  # steps 0, 5, 10, 15, 20
+    frames, info = webp_frames(video)
+    assert len(frames) == 5 and info["loop"] == 0
+    assert all(f.shape == (120, 160, 3) for f in frames)
+    background = view_class(get("boids")).background
+    assert all(foreground(f, background, 40).mean() > 0.01 for f in frames), "a frame shows no boids"
+    assert np.abs(frames[0].astype(int) - frames[-1]).max() > 40, "the boids did not move between frames"
+
+
 def test_run_writes_frames_whose_last_is_the_png_of_the_run(capsys, tmp_path):
     folder, png = tmp_path / "frames", tmp_path / "last.png"
     code, text = run_cli(
@@ -82,7 +127,7 @@ def test_run_writes_frames_whose_last_is_the_png_of_the_run(capsys, tmp_path):
 
 def test_run_refuses_bad_recording_paths_before_running(capsys, tmp_path):
     code, text = run_cli(capsys, "run", "boids", "--video", str(tmp_path / "x.avi"))
-    assert code == 2 and "--video must end in .mp4" in text
+    assert code == 2 and "--video must end in .mp4 or .webp" in text
     (tmp_path / "file").write_text("")
     code, text = run_cli(capsys, "run", "boids", "--frames", str(tmp_path / "file"))
     assert code == 2 and "is a file" in text

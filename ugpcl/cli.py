@@ -441,7 +441,7 @@ def cmd_run(args) -> int:
         (".npz",),
     )
     png = output_path(args.png, "--png", (".png",))
-    recording = output_path(args.video, "--video", (".mp4",)) or output_folder(args.frames, "--frames")
+    recording = output_path(args.video, "--video", (".mp4", ".webp")) or output_folder(args.frames, "--frames")
     if args.video and args.frames:
         raise UsageError("--video and --frames: give one (a run records one sequence)")
     mesh = output_path(args.mesh, "--mesh", MESH_SUFFIXES)
@@ -691,8 +691,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--video",
         default=None,
-        metavar="FILE.mp4",
-        help="record the run offscreen to an MP4: the first state, then every --every K steps (default 1)",
+        metavar="FILE.mp4|.webp",
+        help="record the run offscreen to an MP4 (30 fps) or a looping animated WebP: the first state, then every "
+        "--every K steps (default 1)",
     )
     p.add_argument(
         "--frames", default=None, metavar="DIR", help="as --video, to DIR/frame-000000.png, frame-000001.png ..."

@@ -3,16 +3,20 @@
     python -m ugpcl.docs tables   rewrite every generated block (make docs)
     python -m ugpcl.docs check    exit 1 when a generated block is stale (a test runs this)
     python -m ugpcl.docs images [SCENE ...]   render docs/img/<scene>.png for every (or the named) scene (make png)
+    python -m ugpcl.docs animations [SCENE ...]   record docs/img/<scene>.webp, the loop of each chapter page's
+                                                  picture scene (or of the named ones) (make anim)
 
 A block is the text between ``<!-- BEGIN generated:KIND [SCENE] -->`` and ``<!-- END generated -->``;
 KIND is ``scenes`` (the table of every scene), ``gallery`` (a thumbnail of each chapter's first scene),
-``keys`` (one scene's keys), ``all-keys`` or ``params``.
+``keys`` (one scene's keys), ``all-keys``, ``params`` or ``animation`` (the page's loop and what it shows).
 """
 
 from __future__ import annotations
 
+import math
 import re
 import sys
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from .cli import format_table
@@ -111,6 +115,213 @@ def params_table(name: str) -> str:
     return "\n".join([markdown_table(rows), *(["", "Limits across parameters:", "", *limits] if limits else [])])
 
 
+# {{{ animations: a short loop of each chapter page's picture scene, recorded as `ugpcl run --video x.webp` does
+
+ANIMATION_SIZE = (480, 270)
+"""Width and height of docs/img/<scene>.webp (16:9 as the picture, small enough for a page)."""
+ANIMATION_FPS = 15
+"""Playback rate of the loops: ANIMATION_FRAMES frames last 3 s."""
+ANIMATION_FRAMES = 45
+"""Frames of a loop unless its Animation says otherwise."""
+PICTURE = re.compile(r"^!\[(\w+)\]\(\.\./img/(\w+)\.png\)$", re.M)
+
+
+@dataclass(frozen=True)
+class Animation:
+    """How a page's loop is recorded: ``start`` steps (default: the preview's), then ``frames`` frames ``every``
+    steps apart, the parameters the preview sets and ``overrides``; ``swing`` turns a still scene's orbit camera
+    ``swing`` degrees either side of the picture's (one period per loop, so the loop has no seam). Scenes of many
+    small dots compress badly: a lower WebP ``quality`` keeps them within the size budget."""
+
+    shows: str
+    """What the loop shows (the page's caption)."""
+    every: int = 1
+    start: int | None = None
+    frames: int = ANIMATION_FRAMES
+    swing: float = 0.0
+    quality: int = 70
+    overrides: dict = field(default_factory=dict)
+
+
+ANIMATIONS = {
+    "procedural_modeling": Animation(
+        "the tree grows as the book's `_T` clip goes from 0 to 1 (in 2.2 s here, then it stays grown) while the "
+        "camera swings",
+        every=4,
+        start=24,
+        swing=25.0,
+        overrides={"grow_seconds": 2.2},
+    ),
+    "compute_intro_texture": Animation(
+        "the two textures that `KernelFunction_A` and `KernelFunction_B` fill do not change, so the camera swings "
+        "round them",
+        swing=35.0,
+    ),
+    "boids": Animation("the flock turning in its box", every=3),
+    "stable_fluids_2d": Animation("the scripted circle stroke stirs the ink round", every=2),
+    "stable_fluids_3d": Animation(
+        "the plume rising from the emitter while the camera swings (the volume reads better turning)",
+        every=5,
+        start=20,
+        swing=25.0,
+    ),
+    "sph_2d": Animation(
+        "the dam break: the column falls, splashes against the far wall and settles",
+        every=25,
+        start=0,
+        frames=36,
+        quality=50,  # 4096 dots: at 70 the loop is 430 KB
+    ),
+    "grass": Animation(
+        "the wind sways the blades, one sway period per loop (wind_time_scale = 2 pi / 1.5 s; the book's 0.05 "
+        "sways too slowly to see)",
+        every=2,
+        # 45 frames x 2 steps x dt 1/60 s = 1.5 s of shader time: one whole period of sin(t * wind_time_scale)
+        overrides={"wind_time_scale": round(2 * math.pi / ((ANIMATION_FRAMES * 2) / 60), 4)},
+    ),
+    "marching_cubes": Animation(
+        "the three metaballs pulse through two periods of the book's sin(8 t) (47 steps each), remeshed every step",
+        every=2,
+        frames=47,
+    ),
+    "mcmc": Animation(
+        "the Metropolis chains appear (800 a second instead of the book's 10) while the camera swings",
+        start=0,
+        swing=30.0,
+        quality=60,  # 12,000 small cubes: at 70 the loop is 410 KB
+        overrides={"chains_per_second": 800.0},
+    ),
+    "multiplane_projection": Animation(
+        "the room and its projected walls do not change with time, so the camera swings round the room", swing=30.0
+    ),
+    "projection_spray": Animation("the spray circles the turning cube and sphere and paints them", every=6, start=30),
+    "cellular_growth": Animation(
+        "cells divide and grow into the ring (the book's fixed camera: the fitted one would frame the first cells "
+        "only)",
+        every=12,
+        start=360,
+        overrides={"camera": "book"},
+    ),
+    "space_colonization": Animation("the branches grow from the seeds through the attraction cloud", every=3, start=12),
+    "kleinian": Animation(
+        "the book's uv animation (use_uv_animation: t along animKleinU/V over its 1 s clip, here in 2 s) grows the "
+        "spirals",
+        every=2,
+        start=1,
+        frames=30,
+        overrides={"use_uv_animation": True},
+    ),
+    "cloth": Animation("the sphere pushes into the hanging cloth, which drapes over it", every=25, start=0),
+    "star_glow": Animation("the demo spheres fall and their star streaks follow the highlights", every=2),
+    "ear_clipping": Animation(
+        "the ear list replays, 4 clipped ears a frame, until the glyph is triangulated",
+        start=0,
+        overrides={"clips_per_step": 4},
+    ),
+    "tessellation": Animation("the brush stroke pushes the displaced fluid surface round", every=3),
+    "poisson_disk": Animation(
+        "Bridson's sampler fills the box from one point, 36 active-point steps a frame",
+        start=0,
+        overrides={"steps_per_frame": 36},
+    ),
+}
+"""The loop of each chapter page's picture scene (the first ``![scene](../img/scene.png)`` on the page)."""
+
+
+def page_scenes() -> dict[Path, str]:
+    """Each chapter page and the scene of its picture, the first ``![scene](../img/scene.png)`` that names one."""
+    known = scenes()
+    found = {}
+    for doc in DOCS[1:]:
+        names = [m[2] for m in PICTURE.finditer(doc.read_text()) if m[1] == m[2] and m[2] in known]
+        if names:
+            found[doc] = names[0]
+    return found
+
+
+def animation_block(name: str, path: Path) -> str:
+    """The page's loop under its picture, and a line on how it was recorded and what it shows."""
+    anim = ANIMATIONS[name]
+    image = Path(*_relative(ROOT / "docs" / "img" / f"{name}.webp", path.parent)).as_posix()
+    if anim.start is None:
+        start = f"step {get(name).preview.get('steps', 300)} (the picture's)"
+    else:
+        start = "the start" if anim.start == 0 else f"step {anim.start}"
+    every = f"{anim.every} step{'s' * (anim.every > 1)}"
+    return (
+        f"![{name}, animated]({image})\n\n"
+        f"Loop ({anim.frames} frames at {ANIMATION_FPS} fps, {every} a frame from {start}; `make anim`): {anim.shows}."
+    )
+
+
+def record_animation(runtime, name: str, path: Path) -> int:
+    """Record the loop of scene ``name`` to ``path``: the run loop and recorder of ``ugpcl run --video``
+    (``run_steps`` with a frame callback, ``Recorder``), drawn by ``offscreen.render`` through one view and camera.
+    Returns the number of frames."""
+    from ugpcl.viewer.offscreen import context, render
+    from ugpcl.viewer.record import Recorder
+    from ugpcl.viewer.views import create_view
+
+    from .cli import run_steps
+
+    scene, anim = get(name), ANIMATIONS[name]
+    preview = {**scene.preview, **anim.overrides}
+    steps = preview.pop("steps", 300)
+    sim = scene.create(runtime, 0, **preview)
+    dt = scene.simulation.default_dt
+    start = steps if anim.start is None else anim.start
+    if start:  # (run_steps checks the state it ends on: the poisson_disk sampler's lone first point has nn_dist inf)
+        run_steps(sim, start, dt, quiet=True)
+    view = create_view(scene, context(), sim)
+    camera = view.png_camera()
+    yaw = getattr(camera, "yaw", None)
+    if anim.swing and yaw is None:
+        raise ValueError(f"{name}: swing needs an orbit camera, the view has a {type(camera).__name__}")
+    with Recorder(path, fps=ANIMATION_FPS, webp_quality=anim.quality) as recorder:
+
+        def frame():
+            if anim.swing:
+                camera.yaw = yaw + anim.swing * math.sin(2 * math.pi * recorder.frames / anim.frames)
+            recorder.add(render(scene, sim, ANIMATION_SIZE, view, camera))
+
+        run_steps(sim, (anim.frames - 1) * anim.every, dt, quiet=True, frame=(anim.every, frame))
+    return recorder.frames
+
+
+def animations(names: list[str] | None = None) -> int:
+    """Record docs/img/<scene>.webp for every (or the named) chapter page's picture scene."""
+    from .runtime import Runtime
+
+    shown = sorted(page_scenes().values())
+    unknown = set(names or ()) - set(shown)
+    if unknown:
+        print(f"animations: no chapter page shows {', '.join(sorted(unknown))} as its picture", file=sys.stderr)
+        return 2
+    runtime = Runtime()
+    rows = []
+    for name in shown:
+        if names and name not in names:
+            continue
+        path = ROOT / "docs" / "img" / f"{name}.webp"
+        frames = record_animation(runtime, name, path)
+        anim, size = ANIMATIONS[name], path.stat().st_size
+        rows.append(
+            {
+                "scene": name,
+                "start": "preview" if anim.start is None else anim.start,
+                "every": anim.every,
+                "frames": frames,
+                "KB": size // 1024,
+            }
+        )
+        print(f"wrote {path.relative_to(ROOT)} ({frames} frames, {size // 1024} KB)", file=sys.stderr)
+    print(format_table(rows))
+    return 0
+
+
+# }}}
+
+
 def render_block(kind: str, scene: str | None, path: Path) -> str:
     if kind == "scenes":
         return scenes_table(path.parent)
@@ -122,6 +333,8 @@ def render_block(kind: str, scene: str | None, path: Path) -> str:
         return keys_table(scene)
     if kind == "params":
         return params_table(scene)
+    if kind == "animation":
+        return animation_block(scene, path)
     raise ValueError(f"{path}: unknown generated block {kind!r}")
 
 
@@ -176,6 +389,8 @@ def main(argv: list[str] | None = None) -> int:
         return tables(check=True)
     if command == "images":
         return images(argv[1:])
+    if command == "animations":
+        return animations(argv[1:])
     print(__doc__, file=sys.stderr)
     return 2
 

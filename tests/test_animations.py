@@ -1,0 +1,109 @@
+"""The chapter pages' loops (``python -m ugpcl.docs animations``, ``make anim``): every page embeds the animated WebP
+of its picture scene, recorded through ``ugpcl run --video``'s path, and the file shows something that moves."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from helpers import foreground
+from PIL import Image
+
+from ugpcl.docs import ANIMATION_SIZE, ANIMATIONS, ROOT, page_scenes
+
+PAGES = page_scenes()
+IMG = ROOT / "docs" / "img"
+FILE_LIMIT, TOTAL_LIMIT = 400 * 1024, 6 * 1024 * 1024
+"""Bytes per loop and for all of them: a page stays light to load, the repository small."""
+
+
+def frames_of(path) -> tuple[list[np.ndarray], int | None]:
+    """Every frame of an animated WebP as (H, W, 3) uint8, and its loop count (0: forever)."""
+    with Image.open(path) as image:
+        assert image.format == "WEBP" and image.size == ANIMATION_SIZE, f"{path.name}: {image.format} {image.size}"
+        frames = []
+        for k in range(image.n_frames):
+            image.seek(k)
+            frames.append(np.asarray(image.convert("RGB")))
+        return frames, image.info.get("loop")
+
+
+def test_every_page_has_a_loop_of_its_picture_scene():
+    assert len(PAGES) == len(list((ROOT / "docs" / "chapters").glob("*.md"))), "a chapter page shows no scene picture"
+    assert set(ANIMATIONS) == set(PAGES.values()), "ANIMATIONS and the pages' picture scenes differ"
+
+
+@pytest.mark.parametrize("page", list(PAGES), ids=lambda p: p.stem)
+def test_page_embeds_its_loop_under_its_picture(page):
+    name, text = PAGES[page], page.read_text()
+    assert f"<!-- BEGIN generated:animation {name} -->" in text, f"{page.name}: no animation block for {name}"
+    picture, loop = text.index(f"](../img/{name}.png)"), text.find(f"](../img/{name}.webp)")
+    assert picture < loop, f"{page.name}: the loop of {name} is not embedded after its picture"
+
+
+@pytest.mark.parametrize("name", sorted(ANIMATIONS))
+def test_loop_is_animated_and_shows_the_scene_moving(name):
+    """Animated (the recorded frames, less those libwebp folds into an equal one before), looping forever, at
+    ANIMATION_SIZE; no frame is empty (more than 0.3 % of it differs from its most common colour, the preview test's
+    rule) and the scene visibly changes: from frame to frame in most steps of the loop, and in some frame against the
+    first by more than 0.5 % of the frame."""
+    path = IMG / f"{name}.webp"
+    assert path.exists(), f"{path.name} missing: run make anim"
+    frames, loop = frames_of(path)
+    recorded = ANIMATIONS[name].frames
+    # folds only where nothing changed: the ear list and the Poisson sampler once they are complete
+    assert 0.75 * recorded <= len(frames) <= recorded, f"{path.name}: {len(frames)} frames of {recorded} recorded"
+    assert loop == 0, f"{path.name}: loop count {loop}, not 0 (forever)"
+    for k, pixels in enumerate(frames):
+        colours, counts = np.unique(pixels.reshape(-1, 3), axis=0, return_counts=True)
+        share = foreground(pixels, colours[counts.argmax()] / 255.0).mean()
+        assert share > 0.003, f"{path.name} frame {k}: only {share:.2%} of it differs from its background"
+    # a visible change: more than 40 levels in more than 0.1 % of the pixels (lossy noise stays far below 40)
+    moved = [
+        (np.abs(a.astype(int) - b).max(axis=-1) > 40).mean() > 0.001
+        for a, b in zip(frames[:-1], frames[1:], strict=True)
+    ]
+    assert np.mean(moved) > 0.5, f"{path.name}: only {sum(moved)} of {len(moved)} frame steps show motion"
+    whole = max((np.abs(frames[0].astype(int) - f).max(axis=-1) > 40).mean() for f in frames)
+    assert whole > 0.005, f"{path.name}: no frame differs from the first in more than {whole:.2%} of the pixels"
+
+
+def test_loops_stay_small():
+    sizes = {p.name: p.stat().st_size for p in (IMG / f"{name}.webp" for name in ANIMATIONS) if p.exists()}
+    large = {k: f"{v // 1024} KB" for k, v in sizes.items() if v > FILE_LIMIT}
+    assert not large, f"loops over {FILE_LIMIT // 1024} KB: {large}"
+    assert sum(sizes.values()) <= TOTAL_LIMIT, f"all loops together: {sum(sizes.values()) / 2**20:.1f} MB"
+
+
+@pytest.mark.gl
+def test_record_animation_replays_the_ear_list(runtime, gl, tmp_path):
+    """The docs path itself: ear_clipping's loop reveals 4 ears a frame, from none to the whole glyph, so the first
+    frame shows the outlines only and the last the filled glyph; equal frames at the end are folded by libwebp."""
+    from ugpcl.docs import record_animation
+
+    path = tmp_path / "ear_clipping.webp"
+    assert record_animation(runtime, "ear_clipping", path) == ANIMATIONS["ear_clipping"].frames
+    frames, loop = frames_of(path)
+    assert loop == 0 and [p.name for p in tmp_path.iterdir()] == ["ear_clipping.webp"]
+    lit = [foreground(f, (0.0, 0.0, 0.0), 40).mean() for f in frames]  # the view's black background
+    # outlines and the ear-list markers light about 4 % of the frame, the filled glyph about 12 %
+    assert lit[-1] > 2 * lit[0], f"filled glyph {lit[-1]:.2%} vs outlines {lit[0]:.2%}"
+    assert np.all(np.diff(lit) > -0.005), "the fill shrank between frames"  # ears are only ever added
+
+
+@pytest.mark.gl
+def test_a_swing_turns_the_camera_and_comes_back(runtime, gl, tmp_path, monkeypatch):
+    """multiplane_projection does not change with time: its loop swings the orbit camera one sine period, so the
+    frames differ and the loop's end meets its start (the frame after the last would be the first again)."""
+    import ugpcl.docs as docs
+
+    anim = docs.ANIMATIONS["multiplane_projection"]
+    monkeypatch.setitem(docs.ANIMATIONS, "multiplane_projection", docs.Animation(anim.shows, frames=8, swing=30.0))
+    path = tmp_path / "m.webp"
+    assert docs.record_animation(runtime, "multiplane_projection", path) == 8
+    frames, _ = frames_of(path)
+    assert len(frames) == 8
+    step = [np.abs(a.astype(int) - b).mean() for a, b in zip(frames[:-1], frames[1:], strict=True)]
+    quarter = np.abs(frames[0].astype(int) - frames[2]).mean()  # +30 degrees against 0
+    assert min(step) > 0.5 and quarter > max(step), f"steps {step}, quarter turn {quarter:.2f}"
+    # one period: frame 7 is at -45 degrees of phase, as close to frame 0 as frame 1 is (+45 degrees)
+    assert abs(np.abs(frames[7].astype(int) - frames[0]).mean() - step[0]) < 0.5 * step[0]
