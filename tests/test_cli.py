@@ -328,6 +328,19 @@ def test_divergence_is_one_line_exit_1_and_writes_only_when_asked(capsys, tmp_pa
     assert bool(data["diverged"]) and not np.isfinite(data["pos"]).all()
 
 
+def test_inf_where_a_scene_means_it_is_no_divergence(capsys, tmp_path):
+    """poisson_disk's nn_dist is inf for a lone sample (the first step's one point); NaN there still diverges."""
+    from ugpcl.cli import non_finite
+
+    state = {"nn_dist": np.array([np.inf]), "other": np.array([np.inf]), "n": np.array([1])}
+    assert non_finite(state, ("nn_dist",)) == ["other"]
+    assert non_finite({"nn_dist": np.array([np.nan])}, ("nn_dist",)) == ["nn_dist"]
+    argv = ["run", "poisson_disk", "--steps", "0", "--set", "steps_per_frame=36", "--out", str(tmp_path / "p.npz")]
+    code, _, err = run(capsys, *argv)
+    assert code == 0, err
+    assert np.isinf(np.load(tmp_path / "p.npz")["nn_dist"]).all()
+
+
 # {{{ checkpoints, resume, signs of life, device limits
 
 RESUMABLE = {

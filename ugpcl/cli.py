@@ -56,9 +56,15 @@ class Diverged(RuntimeError):
         self.state = state
 
 
-def non_finite(state: dict) -> list[str]:
-    """Names of the floating-point arrays of ``state`` that hold NaN or inf."""
-    return [k for k, v in state.items() if np.issubdtype(np.asarray(v).dtype, np.floating) and not np.isfinite(v).all()]
+def non_finite(state: dict, may_be_infinite: tuple[str, ...] = ()) -> list[str]:
+    """Names of the floating-point arrays of ``state`` that hold NaN or inf (only NaN for ``may_be_infinite``)."""
+    bad = []
+    for key, value in state.items():
+        if np.issubdtype(np.asarray(value).dtype, np.floating):
+            finite = ~np.isnan(value) if key in may_be_infinite else np.isfinite(value)
+            if not finite.all():
+                bad.append(key)
+    return bad
 
 
 class Watch:
@@ -74,7 +80,7 @@ class Watch:
 
     def check(self, state: dict | None = None) -> dict:
         state = self.sim.state() if state is None else state
-        bad = non_finite(state)
+        bad = non_finite(state, self.sim.may_be_infinite)
         if bad:
             raise Diverged(self.step + 1, self.sim.steps, bad, state)
         self.step, self.at = self.sim.steps, time.monotonic()

@@ -266,6 +266,8 @@ class Simulation:
     """Fixed step for headless runs (the book uses Time.deltaTime)."""
     history: ClassVar[tuple[str, ...]] = ()
     """State arrays that ``--every K`` stacks into ``<name>_history``."""
+    may_be_infinite: ClassVar[tuple[str, ...]] = ()
+    """State arrays where inf is a value, not a divergence (NaN still is): poisson_disk's nn_dist of a lone sample."""
     scene: Scene | None = None
     """The scene this simulation was created for (``Scene.create``): its name, defaults and view."""
 

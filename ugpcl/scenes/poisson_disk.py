@@ -246,6 +246,8 @@ class Simulation(BaseSimulation):
         engine = qmc.PoissonDisk(p.dim, radius=p.r, ncandidates=p.k, l_bounds=self.lo, u_bounds=self.hi, rng=self.seed)
         return engine.fill_space()
 
+    may_be_infinite = ("nn_dist",)  # a lone sample (the first step) has no nearest other sample: inf
+
     def state(self) -> dict[str, np.ndarray]:
         points = self.points()
         state = {
