@@ -96,7 +96,8 @@ def test_params_validate_and_coerce():
 
 
 def test_zeros_fills_every_piece_of_struct_arrays(runtime, monkeypatch):
-    """Runtime.zeros fills in pieces (NVIDIA's large fills go through a kernel that cannot map struct dtypes):
+    """Runtime.zeros fills its first piece and copies it over the rest (NVIDIA fills neither struct dtypes nor past
+    4 GiB):
     with 1 KiB pieces, a 76-byte struct array of 100 items comes back all zero over a buffer that held ones."""
     import numpy as np
 

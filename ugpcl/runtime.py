@@ -15,6 +15,7 @@ import hashlib
 import os
 from importlib import resources
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 import pyopencl as cl
@@ -211,6 +212,19 @@ ZERO_FILL_PIECE = 1 << 30
 class Runtime:
     """A context and an in-order queue on one device, plus the program cache."""
 
+    _shared: ClassVar[dict] = {}
+
+    @classmethod
+    def shared(cls, device: str | None = None) -> Runtime:
+        """The process's one ``Runtime`` for ``device`` (a substring of "platform | device", or None to choose as
+        ``ugpcl run`` does), made on first use: every ``ugpcl.cli.main`` and ``ugpcl.create`` call of a process
+        reuses its context, queue and built programs. A GPU context holds device memory until it is collected; a
+        test session that made one per call ran NVIDIA's driver out of contexts."""
+        key = (device, os.environ.get("UGPCL_DEVICE"), os.environ.get("PYOPENCL_CTX"))  # what choose_device reads
+        if key not in cls._shared:
+            cls._shared[key] = cls(device)
+        return cls._shared[key]
+
     def __init__(self, device: str | None = None):
         self.device, self.reason = choose_device(device)
         self.context = cl.Context([self.device])
@@ -296,13 +310,18 @@ class Runtime:
         return cla.to_device(self.queue, np.ascontiguousarray(array))
 
     def zeros(self, shape, dtype) -> cla.Array:
-        """A zero-filled array, filled in pieces below 2 GiB: pyopencl fills a larger one on NVIDIA with a kernel
-        (its way round an NVIDIA fill bug) that cannot take struct dtypes such as marching cubes' triangles."""
+        """A zero-filled array: its first ZERO_FILL_PIECE bytes filled, then copied over the rest. pyopencl fills a
+        larger array on NVIDIA with a kernel (its way round an NVIDIA fill bug) that cannot take struct dtypes such
+        as marching cubes' triangles, and NVIDIA's own fill at offsets past 4 GiB broke the context on the H100
+        (a 4.75 GiB triangle pool: every later call failed with -9999); device-to-device copies take any offset."""
         self._check_size(shape, dtype)
         array = cla.empty(self.queue, shape, dtype)
-        for start in range(0, array.nbytes, ZERO_FILL_PIECE):
-            size = min(ZERO_FILL_PIECE, array.nbytes - start)
-            cl.enqueue_fill_buffer(self.queue, array.base_data, np.int8(0), start, size)
+        buffer, first = array.base_data, min(ZERO_FILL_PIECE, array.nbytes)
+        if first:
+            cl.enqueue_fill_buffer(self.queue, buffer, np.int8(0), 0, first)
+        for start in range(first, array.nbytes, first):
+            size = min(first, array.nbytes - start)
+            cl.enqueue_copy(self.queue, buffer, buffer, src_offset=0, dst_offset=start, byte_count=size)
         return array
 
     def empty(self, shape, dtype) -> cla.Array:
