@@ -25,18 +25,6 @@ except PackageNotFoundError:  # run from a source tree (PYTHONPATH), not install
 
 __all__ = ["__version__", "create", "render_png", "scenes"]
 
-_runtimes: dict = {}
-
-
-def _runtime(device: str | None = None):
-    """The ``Runtime`` (OpenCL context and queue) for ``device``, made once per process and device name. ``device``
-    is a substring of "platform | device" (``pocl``, ``nvidia``); None chooses as ``ugpcl run`` does."""
-    from .runtime import Runtime
-
-    if device not in _runtimes:
-        _runtimes[device] = Runtime(device)
-    return _runtimes[device]
-
 
 def create(scene: str, seed: int = 0, device=None, **params):
     """A new simulation of ``scene`` (a name from ``ugpcl.scenes()``) with ``params`` over the scene's defaults;
@@ -44,7 +32,7 @@ def create(scene: str, seed: int = 0, device=None, **params):
     from .runtime import Runtime
     from .scenes import get
 
-    rt = device if isinstance(device, Runtime) else _runtime(device)
+    rt = device if isinstance(device, Runtime) else Runtime.shared(device)
     return get(scene).create(rt, seed, **params)
 
 

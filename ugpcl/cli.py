@@ -177,7 +177,7 @@ def cmd_info(args) -> int:
     print("OpenCL devices:")
     for d in devices:
         print(f"  {d.platform.name} | {d.name}  ({d.platform.version})")
-    runtime = Runtime(args.device)
+    runtime = Runtime.shared(args.device)
     print("\nchosen:")
     facts = runtime.describe()
     print(format_table([{"fact": key, "value": str(value)} for key, value in facts.items()]))
@@ -453,7 +453,7 @@ def cmd_run(args) -> int:
     mesh = output_path(args.mesh, "--mesh", MESH_SUFFIXES)
     size = parse_size(args.png_size)
     # }}}
-    runtime = Runtime(args.device)
+    runtime = Runtime.shared(args.device)
     sim = open_simulation(scene, params, seed, runtime, announce=True)
     if resume is not None:
         sim.restore(resume)
@@ -625,7 +625,7 @@ def cmd_bench(args) -> int:
         if name not in benches:
             raise UsageError(f"unknown bench {name!r}; valid: {', '.join(benches)}")
     out = output_path(args.json, "--json", (".json",))
-    runtime = Runtime(args.device)
+    runtime = Runtime.shared(args.device)
     date = time.strftime("%Y-%m-%d")
     records = []
     for name in names:

@@ -158,9 +158,6 @@ def plan(
 
 # {{{ on a worker
 
-_runtimes: dict[str | None, Runtime] = {}
-"""One Runtime per device in each worker process: its programs are built once and serve every task there."""
-
 
 def run_job(job: Job) -> dict:
     """Run one job on this worker and return its index row; a failure becomes a row with the error's line
@@ -170,9 +167,7 @@ def run_job(job: Job) -> dict:
     start = time.perf_counter()
     row = {"run": job.name, "scene": job.scene, "seed": job.seed, "steps": job.steps, "worker": _worker_name()}
     try:
-        if job.device not in _runtimes:
-            _runtimes[job.device] = Runtime(job.device)
-        runtime = _runtimes[job.device]
+        runtime = Runtime.shared(job.device)  # one per device and worker process: programs built once
         row["device"] = runtime.label
         scene = get(job.scene)
         sim = open_simulation(scene, scene.params(**job.changed), job.seed, runtime)
