@@ -356,7 +356,7 @@ def bench(runtime, sizes=None) -> list[dict]:
     the ping-pong swap) in us, timed over 20 substeps back to back and one finish, and as the least traffic a
     substep needs (SUBSTEP_BYTES_PER_PARTICLE) per second. ``kernel`` names the substep's kernel (CSSimulation_cpu
     on CPU devices)."""
-    sizes = sizes or ([64, 128, 256, 512] if runtime.is_gpu else [64, 128, 256])
+    sizes = sizes or ([64, 128, 256, 512, 1024] if runtime.is_gpu else [64, 128, 256])
     rows = []
     for n in sizes:
         sim = Simulation(runtime, Params(**{**MAIN_SCENE, "res": (n, n)}), seed=0)
