@@ -63,27 +63,56 @@ def set_uniform(program: moderngl.Program, name: str, value) -> None:
         program[name].value = value
 
 
-class TextOverlay:
-    """Lines of text drawn top-left on a translucent panel (help overlay, status); rendered with Pillow."""
+class ImageOverlay:
+    """A Pillow image drawn over the scene on a screen rectangle, alpha-blended (text panels, the array's cells)."""
 
-    def __init__(self, ctx: moderngl.Context, font_size: int = 14):
+    def __init__(self, ctx: moderngl.Context, scaled: bool = False):
         self.ctx = ctx
-        self.font = ImageFont.load_default(size=font_size)
+        self.filter = moderngl.LINEAR if scaled else moderngl.NEAREST  # text at 1:1 stays sharp unfiltered
         self.program = load_program(ctx, "overlay")
         quad = np.array([0, 0, 1, 0, 0, 1, 1, 1], "f4")
         self.vbo = ctx.buffer(quad.tobytes())
         self.vao = ctx.vertex_array(self.program, [(self.vbo, "2f", "in_corner")])
         self.texture = None
+
+    def set_image(self, image: Image.Image | None) -> None:
+        """Show ``image`` (RGBA, top row first) from the next draw on; None shows nothing."""
+        if self.texture is not None:
+            self.texture.release()
+            self.texture = None
+        if image is None:
+            return
+        flipped = image.transpose(Image.Transpose.FLIP_TOP_BOTTOM)  # GL textures start at the bottom row
+        self.texture = self.ctx.texture(image.size, 4, flipped.tobytes())
+        self.texture.filter = (self.filter, self.filter)
+
+    def draw_rect(self, rect: tuple[float, float, float, float]) -> None:
+        """Draw the image on ``rect`` = (x, y, width, height) in clip space, (x, y) its bottom-left corner."""
+        if self.texture is None:
+            return
+        self.program["rect"].value = rect
+        self.texture.use(0)
+        self.ctx.enable(moderngl.BLEND)
+        self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        self.ctx.disable(moderngl.DEPTH_TEST)
+        self.vao.render(moderngl.TRIANGLE_STRIP)
+        self.ctx.disable(moderngl.BLEND)
+
+
+class TextOverlay(ImageOverlay):
+    """Lines of text drawn top-left on a translucent panel (help overlay, status); rendered with Pillow."""
+
+    def __init__(self, ctx: moderngl.Context, font_size: int = 14):
+        super().__init__(ctx)
+        self.font = ImageFont.load_default(size=font_size)
         self.lines: list[str] = []
 
     def set_lines(self, lines: list[str]) -> None:
         if lines == self.lines and self.texture is not None:
             return
         self.lines = list(lines)
-        if self.texture is not None:
-            self.texture.release()
-            self.texture = None
         if not lines:
+            self.set_image(None)
             return
         spacing = int(self.font.size * 1.35)
         width = int(max(self.font.getlength(line) for line in lines)) + 16
@@ -91,9 +120,7 @@ class TextOverlay:
         draw = ImageDraw.Draw(image)
         for i, line in enumerate(lines):
             draw.text((8, 6 + i * spacing), line, font=self.font, fill=(255, 255, 255, 255))
-        flipped = image.transpose(Image.Transpose.FLIP_TOP_BOTTOM)  # GL textures start at the bottom row
-        self.texture = self.ctx.texture(image.size, 4, flipped.tobytes())
-        self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.set_image(image)
 
     def draw(self, viewport: tuple[int, int], corner: str = "top-left") -> None:
         if self.texture is None:
@@ -102,13 +129,7 @@ class TextOverlay:
         vw, vh = viewport
         x = 8 if corner.endswith("left") else vw - w - 8
         y = vh - h - 8 if corner.startswith("top") else 8
-        self.program["rect"].value = (2 * x / vw - 1, 2 * y / vh - 1, 2 * w / vw, 2 * h / vh)
-        self.texture.use(0)
-        self.ctx.enable(moderngl.BLEND)
-        self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
-        self.ctx.disable(moderngl.DEPTH_TEST)
-        self.vao.render(moderngl.TRIANGLE_STRIP)
-        self.ctx.disable(moderngl.BLEND)
+        self.draw_rect((2 * x / vw - 1, 2 * y / vh - 1, 2 * w / vw, 2 * h / vh))
 
 
 def read_pixels(fbo: moderngl.Framebuffer) -> np.ndarray:

@@ -7,7 +7,7 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
 from ..camera import OrbitCamera
-from ..gl import TextOverlay, load_program, set_camera
+from ..gl import ImageOverlay, TextOverlay, load_program, set_camera
 from . import Key
 from . import View as BaseView
 
@@ -74,10 +74,7 @@ class View(BaseView):
         self.vao = ctx.vertex_array(self.program, [(self.vbo, "3f 2f", "in_position", "in_uv")])
         self.textures: dict[str, moderngl.Texture] = {}
         self.text = TextOverlay(ctx, font_size=18)
-        self.panel_program = load_program(ctx, "overlay")
-        self.panel_vbo = ctx.buffer(np.array([0, 0, 1, 0, 0, 1, 1, 1], "f4").tobytes())
-        self.panel_vao = ctx.vertex_array(self.panel_program, [(self.panel_vbo, "2f", "in_corner")])
-        self.panel: moderngl.Texture | None = None
+        self.panel = ImageOverlay(ctx, scaled=True)  # the array view's cells, remade when the values change
         self.panel_state: tuple = ()
 
     def make_camera(self):
@@ -101,10 +98,7 @@ class View(BaseView):
         if "array_after_a" in state:
             key = tuple(tuple(np.asarray(state[k]).tolist()) for _, k in ARRAY_ROWS)
             if key != self.panel_state:
-                image = array_panel(state).transpose(Image.Transpose.FLIP_TOP_BOTTOM)  # GL rows start at the bottom
-                if self.panel is not None:
-                    self.panel.release()
-                self.panel = self.ctx.texture(image.size, 4, image.tobytes())
+                self.panel.set_image(array_panel(state))
                 self.panel_state = key
 
     def _text_lines(self, state) -> list[str]:
@@ -144,23 +138,17 @@ class View(BaseView):
                     self.textures[name].use(0)
                     self.vao.render(moderngl.TRIANGLE_STRIP)
         else:
-            if self.mode == "array" and self.panel is not None:
+            if self.mode == "array" and self.panel.texture is not None:
                 self._draw_panel()
             self.text.draw(self.ctx.viewport[2:], corner="top-left")
 
     def _draw_panel(self) -> None:
         """The array panel centred below the log, scaled to 80 % of the width or 65 % of the height."""
-        w, h = self.panel.size
+        w, h = self.panel.texture.size
         vw, vh = self.ctx.viewport[2:]
         scale = min(0.8 * vw / w, 0.65 * vh / h)
         sw, sh = 2 * w * scale / vw, 2 * h * scale / vh  # clip-space size
-        self.panel_program["rect"].value = (-sw / 2, -0.92, sw, sh)  # bottom edge just above the frame's
-        self.panel.use(0)
-        self.ctx.enable(moderngl.BLEND)
-        self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
-        self.ctx.disable(moderngl.DEPTH_TEST)
-        self.panel_vao.render(moderngl.TRIANGLE_STRIP)
-        self.ctx.disable(moderngl.BLEND)
+        self.panel.draw_rect((-sw / 2, -0.92, sw, sh))  # bottom edge just above the frame's
 
     def status(self) -> list[str]:
         tx, ty = self.sim.params.local_size
