@@ -6,6 +6,8 @@
 //   velocity (u, v, w, 0); source (velocity source xyz, density source w); solver (u, v, w, density);
 //   prev, multiplexed as the book does: xyz = velocity source or copy of velocity, w = density source or copy of
 //   density; during the projection x = p and y = div (z, w kept: later kernels read the leftovers).
+//   divergence, pressure float (fixed only): the projection's div and p, so a Jacobi sweep reads 8 bytes per cell and
+//   writes 4 instead of reading and writing prev's 32; prev.xy ends as (p, div) all the same.
 // Boundary rules (the book's SetBoundary* helpers): a face cell copies its inner neighbour (the velocity's negates
 //   the inner cell's normal component and keeps its own tangential ones), an edge cell is the mean of the 2 face
 //   cells beside it, a corner the mean of the 3 edge cells beside it. Every wall cell's value therefore follows from
@@ -22,9 +24,10 @@
 //   DiffuseVelocity      velocity_in, prev.xyz -> velocity_out: one Jacobi sweep (host: gs_iterations times)
 //                        +B(Velocity)
 //   ProjectStep1         velocity -> prev = (0, div, prev.z, prev.w) (own cell, in place) +B(Div); p = 0 everywhere,
-//                        so B(P) would change nothing
-//   ProjectStep2         prev_in -> prev_out: one Jacobi sweep of the Poisson equation for p (gs_iterations) +B(P)
-//   ProjectStep3         velocity -= 0.5*(p(+1) - p(-1))*(w | h | d) per axis (own cell, in place)
+//                        so B(P) would change nothing; fixed: also divergence = div, pressure = 0
+//   ProjectStep2         book: prev_in -> prev_out, fixed: pressure_in, divergence -> pressure_out: one Jacobi sweep
+//                        of the Poisson equation for p (gs_iterations) +B(P)
+//   ProjectStep3         velocity -= 0.5*(p(+1) - p(-1))*(w | h | d) per axis (own cell, in place); fixed: prev.x = p
 //   SetBoundaryVelocity  after ProjectStep3 (in place: its walls would read cells other work-items write)
 //   SwapVelocity         prev.xyz = velocity (a one-way copy despite the name, as the book)
 //   AdvectVelocity       prev.xyz -> velocity: back-trace by the cell's own prev.xyz, trilinear +B(Velocity)
@@ -38,8 +41,8 @@
 //   Draw                 velocity, density -> solver = (u, v, w, density)
 //   the rules on their own (Simulation.set_boundary_*; step() applies them inside the kernels above):
 //   SetBoundaryDensity   density
-//   SetBoundaryDiv       prev.y (the divergence)
-//   SetBoundaryP         prev.x (p)
+//   SetBoundaryDiv       the divergence: prev.y, and fixed's divergence field between ProjectStep1 and ProjectStep3
+//   SetBoundaryP         p: prev.x, or fixed's pressure field between ProjectStep1 and ProjectStep3
 //   The SetBoundary* kernels are one launch of one work-item per wall cell (see boundary_cell): every cell reads
 //   interior cells, and SetBoundaryVelocity's face cells write only their normal component while its edges and
 //   corners read only the face cells' other components (float pointers, so no byte is read while another work-item
@@ -47,7 +50,8 @@
 // Build defines: THREAD_X, THREAD_Y, THREAD_Z = work-group shape of the grid kernels (book: numthreads 8, 8, 4);
 //   BOOK_VARIANT = 1: the original's divergence -0.5*du/w + dv/h + dw/d (operator precedence) and a back-trace that
 //   is never clamped (its clamp() discards the result); 0: Stam's -0.5*(du/w + dv/h + dw/d), back-trace clamped
-//   to [0.5, n - 1.5]. Bugs of Solver3D.compute fixed in both (docs/chapters/04-stable-fluids-3d.md): `id.x < d`
+//   to [0.5, n - 1.5], the pressure solve in the float divergence and pressure fields. Bugs of Solver3D.compute
+//   fixed in both (docs/chapters/04-stable-fluids-3d.md): `id.x < d`
 //   guards, AdvectDensity sampling prev.z, a velocity volume without z (RGHalf), integer-division uvw, the last
 //   corner rule without z == d-1, a_v without d.
 // Differences from the book: one Jacobi sweep per launch from a read buffer into a write buffer (the book's in-place
@@ -330,8 +334,15 @@ INLINE float divergence_at(const __global float4* velocity, int x, int y, int z,
 #endif
 }
 
+// fixed: the divergence and p = 0 also go to their own float fields, which the sweeps read (12 bytes per cell, not
+// the 32 of a float4 read and write); ProjectStep3 writes the solved p back into prev.x.
 __kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+#if BOOK_VARIANT
 void ProjectStep1(const __global float4* velocity, __global float4* prev, int w, int h, int d) {
+#else
+void ProjectStep1(const __global float4* velocity, __global float4* prev, __global float* divergence,
+                  __global float* pressure, int w, int h, int d) {
+#endif
     const int4 n = (int4)(w, h, d, 0);
     int c[3] = {get_global_id(0), get_global_id(1), get_global_id(2)};
     float div;
@@ -347,16 +358,35 @@ void ProjectStep1(const __global float4* velocity, __global float4* prev, int w,
     const int id = cell_of(c, n);
     const float4 p = prev[id];
     prev[id] = (float4)(0.0f, div, p.z, p.w);
+#if !BOOK_VARIANT
+    divergence[id] = div;
+    pressure[id] = 0.0f;
+#endif
 }
 
 // Poisson equation sum6(p) - 6p = -div, one Jacobi sweep: p = (div + sum6(p)) / 6; walls copy the inner cell's new p
-// (SetBoundaryP).
+// (SetBoundaryP). book: p = prev.x, div = prev.y; fixed: the float fields.
+#if BOOK_VARIANT
 INLINE float pressure_at(const __global float4* prev_in, int x, int y, int z, int4 n) {
     return (prev_in[cell(x, y, z, n)].y + neighbours4(prev_in, x, y, z, n, true).x) / 6.0f;  // an interior cell
 }
+#else
+INLINE float pressure_at(const __global float* pressure_in, const __global float* divergence, int x, int y, int z,
+                         int4 n) {
+    // an interior cell; the 6 neighbours' p summed in neighbours4's order: bit for bit the book's p
+    return (divergence[cell(x, y, z, n)] + neighbours(pressure_in, x, y, z, n, true)) / 6.0f;
+}
+#endif
 
 __kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+#if BOOK_VARIANT
 void ProjectStep2(const __global float4* prev_in, __global float4* prev_out, int w, int h, int d) {
+#define PRESSURE_AT(x, y, z) pressure_at(prev_in, x, y, z, n)
+#else
+void ProjectStep2(const __global float* pressure_in, __global float* pressure_out, const __global float* divergence,
+                  int w, int h, int d) {
+#define PRESSURE_AT(x, y, z) pressure_at(pressure_in, divergence, x, y, z, n)
+#endif
     const int4 n = (int4)(w, h, d, 0);
     int c[3] = {get_global_id(0), get_global_id(1), get_global_id(2)};
     float p;
@@ -364,17 +394,24 @@ void ProjectStep2(const __global float4* prev_in, __global float4* prev_out, int
         if (!wall_item(n, c)) return;
         int in[3];
         const int walls = inner_cell(c, n, in);
-        p = wall_copy(walls, pressure_at(prev_in, in[0], in[1], in[2], n));
+        p = wall_copy(walls, PRESSURE_AT(in[0], in[1], in[2]));
     } else {
         if (!is_interior(c[0], c[1], c[2], n)) return;  // padding, or a wall cell (a wall item sets it)
-        p = pressure_at(prev_in, c[0], c[1], c[2], n);
+        p = PRESSURE_AT(c[0], c[1], c[2]);
     }
     const int id = cell_of(c, n);
+#if BOOK_VARIANT
     prev_out[id] = (float4)(p, prev_in[id].yzw);
+#else
+    pressure_out[id] = p;
+#endif
+#undef PRESSURE_AT
 }
 
-// Subtract the gradient of p (central differences, scaled back from uv units: book's / uvd).
+// Subtract the gradient of p (central differences, scaled back from uv units: book's / uvd). fixed: p from its
+// float field, copied into prev.x, so prev holds (p, div) afterwards as the book's does.
 __kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+#if BOOK_VARIANT
 void ProjectStep3(__global float4* velocity, const __global float4* prev, int w, int h, int d) {
     CELL_OR_RETURN(w, h, d)
     float4 v = velocity[id];
@@ -383,6 +420,18 @@ void ProjectStep3(__global float4* velocity, const __global float4* prev, int w,
     v.z -= 0.5f * (ld4(prev, x, y, z + 1, n, false).x - ld4(prev, x, y, z - 1, n, false).x) * (float)d;
     velocity[id] = v;
 }
+#else
+void ProjectStep3(__global float4* velocity, __global float4* prev, const __global float* pressure, int w, int h,
+                  int d) {
+    CELL_OR_RETURN(w, h, d)
+    float4 v = velocity[id];
+    v.x -= 0.5f * (ld(pressure, x + 1, y, z, n, false) - ld(pressure, x - 1, y, z, n, false)) * (float)w;
+    v.y -= 0.5f * (ld(pressure, x, y + 1, z, n, false) - ld(pressure, x, y - 1, z, n, false)) * (float)h;
+    v.z -= 0.5f * (ld(pressure, x, y, z + 1, n, false) - ld(pressure, x, y, z - 1, n, false)) * (float)d;
+    velocity[id] = v;
+    prev[id].x = pressure[id];
+}
+#endif
 
 // The velocity's walls, one work-item per wall cell (global >= w*h*d - (w-2)(h-2)(d-2)). A face cell writes only its
 // normal component; an edge or corner reads the inner cell and, of each face cell it depends on, only the components
@@ -549,12 +598,14 @@ __kernel void SetBoundaryDensity(__global float* density, int w, int h, int d) {
     set_boundary_copy(density, 1, 0, (int4)(w, h, d, 0));
 }
 
-__kernel void SetBoundaryDiv(__global float4* prev, int w, int h, int d) {
-    set_boundary_copy((__global float*)prev, 4, 1, (int4)(w, h, d, 0));  // prev.y = div
+// the divergence: prev.y (stride 4), or fixed's divergence field (stride 1) during a solve.
+__kernel void SetBoundaryDiv(__global float* div, int stride, int w, int h, int d) {
+    set_boundary_copy(div, stride, stride > 1 ? 1 : 0, (int4)(w, h, d, 0));
 }
 
-__kernel void SetBoundaryP(__global float4* prev, int w, int h, int d) {
-    set_boundary_copy((__global float*)prev, 4, 0, (int4)(w, h, d, 0));  // prev.x = p
+// p, every `stride`-th float of `p` (prev.x: 4; fixed's pressure field during a solve: 1).
+__kernel void SetBoundaryP(__global float* p, int stride, int w, int h, int d) {
+    set_boundary_copy(p, stride, 0, (int4)(w, h, d, 0));
 }
 
 // }}}

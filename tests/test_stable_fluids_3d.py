@@ -266,7 +266,10 @@ PRODUCERS = {
     "advect_density": ("density", "set_boundary_density", lambda sim: sim.advect_density(DT)),
     "advect_density_from_ext": ("density", "set_boundary_density", lambda sim: sim.advect_density_from_ext(DT)),
     "project_step1": ("prev", "set_boundary_div", lambda sim: sim.project_step1()),
+    # from a prev set on the host (fixed: copied into the pressure and divergence fields first), and after
+    # ProjectStep1 as step() runs it (fixed sweeps the fields ProjectStep1 fills)
     "project_step2": ("prev", "set_boundary_p", lambda sim: sim.project_step2(1)),
+    "project_step1_2": ("prev", "set_boundary_p", lambda sim: (sim.project_step1(), sim.project_step2(2))),
 }
 
 
@@ -393,6 +396,71 @@ def test_project_step2_sweep_matches_reference(runtime, shape, seed):
     sim.set_fields(prev=prev)
     sim.project_step2(sweeps=1)
     assert_close(sim.state()["prev"], project_step2_reference(prev), 1e-6)
+
+
+@pytest.mark.parametrize("shape", SIZES)
+def test_fixed_pressure_solve_is_the_books_float4_solve_bit_for_bit(runtime, shape, seed):
+    """fixed sweeps its own float pressure and divergence fields, book the float4 prev; ProjectStep2 and 3 do the same
+    arithmetic in both variants, so from the same velocity and prev the two give the same bits."""
+    rng = np.random.default_rng(seed)
+    velocity, _, _ = random_fields(rng, shape)
+    prev = rng.normal(0.0, 0.05, (*shape[::-1], 4)).astype(np.float32)
+    results = {}
+    for variant in ("book", "fixed"):
+        sim = make(runtime, shape, variant=variant)
+        sim.set_fields(velocity=velocity, prev=prev)
+        sim.project_step2(sweeps=3)
+        mid = sim.state()["prev"]
+        sim.project_step3()
+        results[variant] = (mid, sim.state()["prev"], sim.state()["velocity"])
+    for book, fixed in zip(results["book"], results["fixed"], strict=True):
+        np.testing.assert_array_equal(fixed, book)
+    assert (results["fixed"][1][..., 0] != prev[..., 0]).any(), "the sweeps changed no p"
+
+
+def test_fixed_projection_keeps_prev_as_the_books(runtime, seed):
+    """fixed: ProjectStep1 fills the divergence field and zeroes the pressure pair, the sweeps leave prev alone (p
+    lives in the pressure field meanwhile, which state() reports as prev.x), ProjectStep3 copies p into prev.x."""
+    rng = np.random.default_rng(seed)
+    shape = (19, 17, 13)
+    sim = make(runtime, shape)
+    velocity, _, prev = random_fields(rng, shape)
+    sim.set_fields(velocity=velocity, prev=prev)
+    sim.project_step1()
+    assert sim.solving
+    raw = sim.prev.read.get()
+    np.testing.assert_array_equal(sim.divergence.get(), raw[..., 1])
+    assert not sim.pressure.read.get().any() and (raw[..., 1] != 0).any()
+    sim.project_step2(sweeps=2)
+    np.testing.assert_array_equal(sim.prev.read.get(), raw)  # the sweeps touch only the float fields
+    p = sim.pressure.read.get()
+    assert (p != 0).any()
+    np.testing.assert_array_equal(sim.state()["prev"][..., 0], p)
+    np.testing.assert_array_equal(sim.state()["prev"][..., 1:], raw[..., 1:])
+    sim.project_step3()
+    assert not sim.solving
+    after = sim.prev.read.get()
+    np.testing.assert_array_equal(after[..., 0], p)
+    np.testing.assert_array_equal(after[..., 1:], raw[..., 1:])
+
+
+def test_restore_mid_projection_goes_on_as_the_original(runtime, seed):
+    """A checkpoint taken between ProjectStep1 and ProjectStep3 (fixed: p in the pressure field) restores into a
+    simulation that finishes the projection and steps on with the same bits."""
+    a = make(runtime, velocity_coef=10.0)
+    for _ in range(3):
+        a.step()
+    a.project_step1()
+    a.project_step2(sweeps=1)
+    b = make(runtime, velocity_coef=10.0)
+    b.restore(a.state())
+    b.steps = a.steps
+    for sim in (a, b):
+        sim.project_step2(sweeps=1)
+        sim.project_step3()
+        sim.step()
+    for key, value in a.state().items():
+        np.testing.assert_array_equal(b.state()[key], value, err_msg=key)
 
 
 @pytest.mark.parametrize("shape", SIZES)
@@ -877,3 +945,13 @@ def test_kernels_on_oclgrind(oclgrind, variant):
     sim.update(emitter=False)
     sim.step()  # AdvectDensityFromExt on the zero source (no AddSource kernels)
     assert np.isfinite(sim.state()["density"]).all()
+    sim.project_step1()
+    sim.set_boundary_p()  # fixed: on the pressure field (stride 1)
+    sim.set_boundary_div()  # fixed: on prev.y and the divergence field
+    sim.project_step2(1)
+    sim.update(variant="book" if variant == "fixed" else "fixed")  # mid-solve: p moves to where the other reads it
+    sim.project_step2(1)
+    sim.project_step3()
+    sim.set_boundary_p()  # on prev.x (stride 4)
+    sim.set_boundary_div()
+    sim.set_boundary_density()

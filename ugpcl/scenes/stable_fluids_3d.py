@@ -19,12 +19,13 @@ The AddSource kernels run only while the source is on (the original passes no so
 Differences from the book: Jacobi sweeps between ping-pong buffers (the original's in-place Gauss-Seidel races); the
 walls are set by extra work-groups past the grid (``SETS_WALLS``), one work-item per wall cell computing the kernel's
 value at the cells its rule reads, instead of reading cells other work-items write (the results of separate face,
-edge and corner passes, bit for bit); a scripted emitter (``emitter``,
-``emitter_frames``) replaces the missing source provider; ``variant=fixed`` (default) uses Stam's divergence and
-clamps the back-trace, ``variant=book`` keeps the original's divergence precedence bug and unclamped back-trace. Bugs
-that would stop Solver3D from running at all are fixed in both variants (guards on id.x < d, AdvectDensity sampling
-prev.z, a 2-channel velocity volume, integer uvw, the last corner rule, diffusion coefficient without d): the 3D
-solver follows the 2D one's intent.
+edge and corner passes, bit for bit); a scripted emitter (``emitter``, ``emitter_frames``) replaces the missing
+source provider; ``variant=fixed`` (default) uses Stam's divergence, clamps the back-trace and runs the pressure
+solve on its own float divergence and pressure fields (12 bytes per cell and sweep instead of the float4 prev's 32;
+prev.xy ends as (p, div) all the same), ``variant=book`` keeps the original's divergence precedence bug and
+unclamped back-trace. Bugs that would stop Solver3D from running at all are fixed in both variants (guards on
+id.x < d, AdvectDensity sampling prev.z, a 2-channel velocity volume, integer uvw, the last corner rule,
+diffusion coefficient without d): the 3D solver follows the 2D one's intent.
 """
 
 from __future__ import annotations
@@ -137,7 +138,8 @@ class Simulation(BaseSimulation):
     def allocations(cls, params: Params) -> list[Allocation]:
         cells = params.width * params.height * params.depth
         floats = {"velocity": 4, "velocity (write)": 4, "density": 1, "density (write)": 1, "prev": 4,
-                  "prev (write)": 4, "source": 4, "solver": 4}  # the fields of _reset  # fmt: skip
+                  "prev (write)": 4, "divergence": 1, "pressure": 1, "pressure (write)": 1, "source": 4,
+                  "solver": 4}  # the fields of _reset  # fmt: skip
         return [Allocation(f"{name} field", cells * 4 * n, "width") for name, n in floats.items()]
 
     def _reset(self) -> None:
@@ -159,6 +161,10 @@ class Simulation(BaseSimulation):
         self.velocity = PingPong.zeros(rt, (*self.shape, 4), np.float32)  # (u, v, w, 0)
         self.density = PingPong.zeros(rt, self.shape, np.float32)
         self.prev = PingPong.zeros(rt, (*self.shape, 4), np.float32)
+        # variant fixed: the pressure solve's own fields (a sweep moves 12 bytes per cell, not prev's 32)
+        self.divergence = rt.zeros(self.shape, np.float32)
+        self.pressure = PingPong.zeros(rt, self.shape, np.float32)
+        self.solving = False  # fixed, between ProjectStep1 and ProjectStep3: p lives in `pressure`, not in prev.x
         self.source = rt.zeros((*self.shape, 4), np.float32)
         self.no_source = rt.zeros((*self.shape, 4), np.float32)  # what AdvectDensityFromExt reads with no source
         self.solver = rt.zeros((*self.shape, 4), np.float32)
@@ -207,11 +213,28 @@ class Simulation(BaseSimulation):
         kernel, size = self._launches[name]
         kernel(size, self.local_size, *args)
 
-    def _boundary(self, name: str, field) -> None:
-        """SetBoundary<name> on ``field``: one launch, one work-item per wall cell (faces, edges and corners)."""
+    def _boundary(self, name: str, field, *args) -> None:
+        """SetBoundary<name> on ``field`` (``args`` follow it: P's stride): one launch, one work-item per wall cell
+        (faces, edges and corners)."""
         if self.params is not self._configured_for:
             self._configure()
-        self._launches[f"SetBoundary{name}"][0](self._boundary_size, None, field, *self.dims)
+        self._launches[f"SetBoundary{name}"][0](self._boundary_size, None, field, *args, *self.dims)
+
+    def _place_p(self) -> None:
+        """Put p and the divergence where this variant's ProjectStep2/3 read them: the float fields (fixed) or prev.xy
+        (book). A no-op inside step(); otherwise (prev set on the host or restored, the variant switched mid-solve)
+        a copy through the host."""
+        fixed = self.params.variant == "fixed"
+        if fixed == self.solving:
+            return
+        prev = self.prev.read.get()
+        if fixed:
+            self.pressure.read.set(np.ascontiguousarray(prev[..., 0]))
+            self.divergence.set(np.ascontiguousarray(prev[..., 1]))
+        else:
+            prev[..., 0] = self.pressure.read.get()
+            self.prev.read.set(prev)
+        self.solving = fixed
 
     # {{{ boundaries on their own (step() has the kernels apply them, as the book's in-kernel SetBoundary* calls)
 
@@ -222,10 +245,15 @@ class Simulation(BaseSimulation):
         self._boundary("Velocity", self.velocity.read)
 
     def set_boundary_div(self) -> None:
-        self._boundary("Div", self.prev.read)
+        """SetBoundaryDiv on prev.y, and on the divergence field the sweeps read while a fixed projection runs."""
+        self._boundary("Div", self.prev.read, np.int32(4))
+        if self.solving:
+            self._boundary("Div", self.divergence, np.int32(1))
 
     def set_boundary_p(self) -> None:
-        self._boundary("P", self.prev.read)
+        """SetBoundaryP on p: prev.x, or the pressure field while a fixed projection runs (see solving)."""
+        p, stride = (self.pressure.read, 1) if self.solving else (self.prev.read, 4)
+        self._boundary("P", p, np.int32(stride))
 
     # }}}
 
@@ -244,6 +272,7 @@ class Simulation(BaseSimulation):
         self._grid(
             "AddSourceVelocity", self.velocity.read, self.prev.read, self.source, *self.dims, coef, np.float32(dt)
         )
+        self.solving = False  # prev.x overwritten, as the book's p
 
     def diffuse_velocity(self, dt: float, sweeps: int | None = None) -> None:
         """DiffuseVelocity: ``sweeps`` (default gs_iterations) Jacobi sweeps, each setting the walls
@@ -256,20 +285,36 @@ class Simulation(BaseSimulation):
 
     def project_step1(self) -> None:
         """ProjectStep1: prev = (0, div, prev.z, prev.w), the walls' div copied from inside (SetBoundaryDiv's rule;
-        p = 0 everywhere, so SetBoundaryP's changes nothing)."""
-        self._grid("ProjectStep1", self.velocity.read, self.prev.read, *self.dims)
+        p = 0 everywhere, so SetBoundaryP's changes nothing). fixed: also divergence = div, pressure = 0."""
+        if self.params.variant == "book":
+            self._grid("ProjectStep1", self.velocity.read, self.prev.read, *self.dims)
+            self.solving = False
+        else:
+            self._grid(
+                "ProjectStep1", self.velocity.read, self.prev.read, self.divergence, self.pressure.read, *self.dims
+            )
+            self.solving = True
 
     def project_step2(self, sweeps: int | None = None) -> None:
         """ProjectStep2: ``sweeps`` (default gs_iterations) Jacobi sweeps for p, each setting the walls
-        (SetBoundaryP's rule, applied by the kernel)."""
-        prev, dims = self.prev, self.dims
+        (SetBoundaryP's rule, applied by the kernel). fixed: on the divergence and pressure fields ProjectStep1 (or
+        set_fields/restore) filled, not on prev."""
+        self._place_p()
+        book, dims = self.params.variant == "book", self.dims
+        p, extra = (self.prev, ()) if book else (self.pressure, (self.divergence,))
         for _ in range(self.params.gs_iterations if sweeps is None else sweeps):
-            self._grid("ProjectStep2", prev.read, prev.write, *dims)
-            prev.swap()
+            self._grid("ProjectStep2", p.read, p.write, *extra, *dims)
+            p.swap()
 
     def project_step3(self) -> None:
-        """ProjectStep3: velocity -= grad p (in place, as the book); SetBoundaryVelocity."""
-        self._grid("ProjectStep3", self.velocity.read, self.prev.read, *self.dims)
+        """ProjectStep3: velocity -= grad p (in place, as the book); SetBoundaryVelocity. fixed: p from the pressure
+        field, copied into prev.x."""
+        self._place_p()
+        if self.params.variant == "book":
+            self._grid("ProjectStep3", self.velocity.read, self.prev.read, *self.dims)
+        else:
+            self._grid("ProjectStep3", self.velocity.read, self.prev.read, self.pressure.read, *self.dims)
+        self.solving = False
         self.set_boundary_velocity()
 
     def project(self, sweeps: int | None = None) -> None:
@@ -281,6 +326,7 @@ class Simulation(BaseSimulation):
     def swap_velocity(self) -> None:
         """SwapVelocity: prev.xyz = velocity."""
         self._grid("SwapVelocity", self.velocity.read, self.prev.read, *self.dims)
+        self.solving = False  # prev.x overwritten, as the book's p
 
     def advect_velocity(self, dt: float) -> None:
         """AdvectVelocity: velocity = prev.xyz at the back-traced point, walls set (SetBoundaryVelocity's rule)."""
@@ -382,6 +428,7 @@ class Simulation(BaseSimulation):
             self.density.read.set(np.ascontiguousarray(density, np.float32))
         if prev is not None:
             self.prev.read.set(np.ascontiguousarray(prev, np.float32))
+            self.solving = False  # p = prev.x (a projection goes on from it: _place_p)
 
     def solver_field(self) -> np.ndarray:
         """The Draw output (D, H, W, 4) = (u, v, w, density): what the view renders."""
@@ -389,11 +436,14 @@ class Simulation(BaseSimulation):
 
     def state(self) -> dict[str, np.ndarray]:
         velocity = self.velocity.read.get()[..., :3]
+        prev = self.prev.read.get()
+        if self.solving:  # mid-projection (fixed): prev as the book's would be, p in x
+            prev[..., 0] = self.pressure.read.get()
         return {
             "velocity": np.ascontiguousarray(velocity),
             "density": self.density.read.get(),
             "solver": self.solver.get(),
-            "prev": self.prev.read.get(),
+            "prev": prev,
             "source": self.source.get(),
             "divergence": central_divergence(velocity),
             "kinetic_energy": np.float32(0.5 * np.mean(np.sum(velocity.astype(np.float64) ** 2, axis=-1))),
@@ -404,6 +454,7 @@ class Simulation(BaseSimulation):
         put(self.velocity.read, velocity, "velocity")
         put(self.density.read, state["density"], "density")
         put(self.prev.read, state["prev"], "prev")
+        self.solving = False  # state() put p into prev.x
         put(self.solver, state["solver"], "solver")
         put(self.source, state["source"], "source")
 
@@ -447,7 +498,8 @@ def bench(runtime, sizes=None) -> list[dict]:
     2 advections, the queue finished after each step), cell updates/s (cells x steps/s), and one Jacobi sweep of the
     pressure solve (ProjectStep2 with its walls, one launch) in us, timed over 20 sweeps back to back and one finish
     as a solve runs them, as sweeps/s and cell updates/s, and as the least traffic a sweep needs
-    (stable_fluids_2d.JACOBI_BYTES_PER_CELL) per second."""
+    (stable_fluids_2d.JACOBI_BYTES_PER_CELL, what the fixed variant's sweep moves; the book's float4 prev: 32) per
+    second."""
     sizes = sizes or ([64, 128, 256] if runtime.is_gpu else [64, 128])
     rows = []
     for n in sizes:
