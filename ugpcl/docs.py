@@ -211,7 +211,7 @@ ANIMATIONS = {
         frames=30,
         overrides={"use_uv_animation": True},
     ),
-    "cloth": Animation("the sphere pushes into the hanging cloth, which drapes over it", every=25, start=0),
+    "cloth": Animation("the sphere pushes into the hanging cloth, which drapes over it", every=12, start=560),
     "star_glow": Animation("the demo spheres fall and their star streaks follow the highlights", every=2),
     "ear_clipping": Animation(
         "the ear list replays, 4 clipped ears a frame, until the glyph is triangulated",
