@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import foreground
+from helpers import foreground, most_common_colour
 from PIL import Image
 
 from ugpcl.docs import PREVIEW_SIZE, ROOT, tables
@@ -44,8 +44,7 @@ FILLS_THE_FRAME = {
 def subject(pixels: np.ndarray) -> tuple[float, tuple[int, int, int, int]]:
     """Share of the pixels that differ from the most common colour (the background wherever the subject does not
     fill the picture) and the bounding box (x0, y0, x1, y1) of those pixels."""
-    colours, counts = np.unique(pixels.reshape(-1, 3), axis=0, return_counts=True)
-    mask = foreground(pixels, colours[counts.argmax()] / 255.0)
+    mask = foreground(pixels, most_common_colour(pixels))
     ys, xs = np.nonzero(mask)
     return float(mask.mean()), (xs.min(), ys.min(), xs.max(), ys.max()) if len(xs) else (0, 0, 0, 0)
 
