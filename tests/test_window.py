@@ -8,6 +8,7 @@ import shutil
 import subprocess
 import sys
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import imageio.v3 as iio
@@ -51,6 +52,20 @@ def screenshot(env, tmp_path, scene: str) -> np.ndarray:
     return np.asarray(Image.open(shots[-1]).convert("RGB"))
 
 
+@contextmanager
+def viewer_app(env, cwd, *args):
+    """``ugpcl-view ARGS`` on the display of ``env``; on leaving, killed if still open, its stderr in ``app.err``."""
+    viewer = Path(sys.executable).parent / "ugpcl-view"
+    app = subprocess.Popen([str(viewer), *args], cwd=cwd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                           text=True)  # fmt: skip
+    try:
+        yield app
+    finally:
+        if app.poll() is None:
+            app.kill()
+        app.err = app.communicate()[1]
+
+
 def quit_cleanly(env, app) -> None:
     xdotool(env, "key", "Escape")
     assert app.wait(timeout=30) == 0, "Esc did not close the window cleanly"
@@ -59,16 +74,7 @@ def quit_cleanly(env, app) -> None:
 @pytest.mark.gl
 def test_view_opens_a_window_and_obeys_keys(display, tmp_path):
     env = {**os.environ, "DISPLAY": display}
-    viewer = Path(sys.executable).parent / "ugpcl-view"
-    app = subprocess.Popen(
-        [str(viewer), "boids", "--set", "max_object_num=512", "--size", "320x240"],
-        cwd=tmp_path,
-        env=env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    try:
+    with viewer_app(env, tmp_path, "boids", "--set", "max_object_num=512", "--size", "320x240") as app:
         window = xdotool(env, "search", "--sync", "--onlyvisible", "--name", "ugpcl")
         assert window, "no ugpcl window appeared"
         window = window.splitlines()[0]
@@ -78,10 +84,7 @@ def test_view_opens_a_window_and_obeys_keys(display, tmp_path):
         time.sleep(1.0)
         pixels = screenshot(env, tmp_path, "boids")
         quit_cleanly(env, app)
-    finally:
-        if app.poll() is None:
-            app.kill()
-        _, err = app.communicate()
+    err = app.err
     assert pixels.shape == (240, 320, 3)
     assert foreground(pixels, (0.192, 0.302, 0.475)).mean() > 0.05, "the screenshot shows no boids or overlay"
     assert "wrote out/boids-" in err
@@ -99,10 +102,6 @@ def test_every_scene_opens_and_takes_every_key(display, tmp_path, name):
     is."""
     view_keys = [binding.key for binding in view_class(scenes()[name]).keys]
     env = {**os.environ, "DISPLAY": display}
-    viewer = Path(sys.executable).parent / "ugpcl-view"
-    app = subprocess.Popen(
-        [str(viewer), name, "--size", "320x240"], cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True
-    )
 
     def screenshot(count: int) -> None:
         """Press S every 2 s until ``count`` pictures exist (a window still starting up drops key presses)."""
@@ -111,7 +110,7 @@ def test_every_scene_opens_and_takes_every_key(display, tmp_path, name):
             xdotool(env, "key", "s")
             time.sleep(2.0)
 
-    try:
+    with viewer_app(env, tmp_path, name, "--size", "320x240") as app:
         window = xdotool(env, "search", "--sync", "--onlyvisible", "--name", "ugpcl")
         assert window, "no ugpcl window appeared"
         xdotool(env, "windowfocus", "--sync", window.splitlines()[0])
@@ -121,10 +120,7 @@ def test_every_scene_opens_and_takes_every_key(display, tmp_path, name):
         screenshot(2)
         xdotool(env, "key", "Escape")
         assert app.wait(timeout=60) == 0, "Esc did not close the window cleanly"
-    finally:
-        if app.poll() is None:
-            app.kill()
-        _, err = app.communicate()
+    err = app.err
     assert "Traceback" not in err, err
     shots = sorted((tmp_path / "out").glob(f"{name}-*.png"))
     assert len(shots) >= 2, f"the S key wrote {len(shots)} screenshot(s), not 2; stderr:\n{err}"
@@ -137,19 +133,13 @@ def test_view_pauses_with_a_message_when_the_state_diverges(display, tmp_path):
     """cloth at stiffness=1e20 turns NaN in a few steps: the window stops stepping, draws no NaN geometry, shows
     the message in the overlay and prints it once."""
     env = {**os.environ, "DISPLAY": display}
-    viewer = Path(sys.executable).parent / "ugpcl-view"
-    argv = [str(viewer), "cloth", "--set", "res=16,16", "stiffness=1e20", "--size", "320x240"]
-    app = subprocess.Popen(argv, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
+    with viewer_app(env, tmp_path, "cloth", "--set", "res=16,16", "stiffness=1e20", "--size", "320x240") as app:
         window = xdotool(env, "search", "--sync", "--onlyvisible", "--name", "ugpcl").splitlines()[0]
         xdotool(env, "windowfocus", "--sync", window)
         time.sleep(4.0)  # the watch reads the state back every CHECK_SECONDS (2 s)
         shot = screenshot(env, tmp_path, "cloth")
         quit_cleanly(env, app)
-    finally:
-        if app.poll() is None:
-            app.kill()
-        _, err = app.communicate()
+    err = app.err
     lines = [line for line in err.splitlines() if "diverged" in line]
     assert len(lines) == 1 and "pos" in lines[0] and "stiffness=1e+20" in lines[0], err
     drawn = foreground(shot, view_class(scenes()["cloth"]).background)
@@ -162,10 +152,7 @@ def test_ear_clipping_draws_a_ring_with_left_clicks_and_closes_it_with_a_right_c
     """The sample's DrawTest: left clicks add vertices, a right click (press and release, no drag) closes the ring,
     which is then triangulated and filled."""
     env = {**os.environ, "DISPLAY": display}
-    viewer = Path(sys.executable).parent / "ugpcl-view"
-    argv = [str(viewer), "ear_clipping", "--set", "preset=draw", "--size", "320x240"]
-    app = subprocess.Popen(argv, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
+    with viewer_app(env, tmp_path, "ear_clipping", "--set", "preset=draw", "--size", "320x240") as app:
         window = xdotool(env, "search", "--sync", "--onlyvisible", "--name", "ugpcl").splitlines()[0]
         xdotool(env, "windowfocus", "--sync", window)
         time.sleep(1.0)
@@ -176,10 +163,6 @@ def test_ear_clipping_draws_a_ring_with_left_clicks_and_closes_it_with_a_right_c
         time.sleep(1.0)
         shot = screenshot(env, tmp_path, "ear_clipping")
         quit_cleanly(env, app)
-    finally:
-        if app.poll() is None:
-            app.kill()
-        app.communicate()
     inside = foreground(shot[130:160, 145:175], (0.0, 0.0, 0.0))  # around the triangle's centroid (160, 140)
     assert inside.mean() > 0.9, "the closed ring was not filled"
 
@@ -202,9 +185,6 @@ def test_panel_opens_and_dragged_sliders_change_the_simulation(display, tmp_path
     """H opens the panel (its sliders appear at the right). Dragging max_speed (live) to its left end applies it at
     once; dragging max_object_num (not live) to 1 waits, and "reset to apply" then leaves one boid on screen."""
     env = {**os.environ, "DISPLAY": display}
-    viewer = Path(sys.executable).parent / "ugpcl-view"
-    argv = [str(viewer), "boids", "--set", "max_object_num=512", "--size", "900x600"]
-    app = subprocess.Popen(argv, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     shots = (tmp_path / "out", "boids-*.png")
 
     def screenshot() -> np.ndarray:
@@ -224,7 +204,7 @@ def test_panel_opens_and_dragged_sliders_change_the_simulation(display, tmp_path
         xdotool(env, "mouseup", "1")
         time.sleep(1.0)
 
-    try:
+    with viewer_app(env, tmp_path, "boids", "--set", "max_object_num=512", "--size", "900x600") as app:
         window = xdotool(env, "search", "--sync", "--onlyvisible", "--name", "ugpcl").splitlines()[0]
         xdotool(env, "windowfocus", "--sync", window)
         time.sleep(2.0)
@@ -244,12 +224,8 @@ def test_panel_opens_and_dragged_sliders_change_the_simulation(display, tmp_path
         xdotool(env, "mousemove", "--window", window, "530", str(centre[0][1] - 46), "click", "1")
         time.sleep(2.0)
         one = screenshot()
-        xdotool(env, "key", "Escape")
-        assert app.wait(timeout=30) == 0
-    finally:
-        if app.poll() is None:
-            app.kill()
-        _, err = app.communicate()
+        quit_cleanly(env, app)
+    err = app.err
     assert "Traceback" not in err, err
     assert not (np.abs(closed.astype(int) - SLIDER_GRAB).sum(axis=-1) <= 6).any(), "a slider showed before H"
     assert len(starts) >= 5 and grab[:, 500:].any() and not grab[:, :500].any(), "no panel at the right after H"
@@ -268,10 +244,7 @@ def test_panel_opens_and_dragged_sliders_change_the_simulation(display, tmp_path
 def test_record_keys_write_an_mp4_and_a_png_sequence_of_the_window(display, tmp_path):
     """F9 records the window to out/boids-<time>.mp4 until pressed again; F10 the same as PNGs."""
     env = {**os.environ, "DISPLAY": display}
-    viewer = Path(sys.executable).parent / "ugpcl-view"
-    argv = [str(viewer), "boids", "--size", "320x240"]
-    app = subprocess.Popen(argv, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
+    with viewer_app(env, tmp_path, "boids", "--size", "320x240") as app:
         window = xdotool(env, "search", "--sync", "--onlyvisible", "--name", "ugpcl").splitlines()[0]
         xdotool(env, "windowfocus", "--sync", window)
         time.sleep(2.0)
@@ -280,12 +253,8 @@ def test_record_keys_write_an_mp4_and_a_png_sequence_of_the_window(display, tmp_
             time.sleep(3.0)
             xdotool(env, "key", key)
             time.sleep(1.0)
-        xdotool(env, "key", "Escape")
-        assert app.wait(timeout=30) == 0
-    finally:
-        if app.poll() is None:
-            app.kill()
-        _, err = app.communicate()
+        quit_cleanly(env, app)
+    err = app.err
     assert "Traceback" not in err, err
     assert "max_object_num=2048" in err, "on a CPU device boids start at the interactive size"
     written = [line.split()[2:] for line in err.splitlines() if line.startswith("ugpcl-view: wrote out/")]
