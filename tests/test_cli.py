@@ -250,11 +250,13 @@ def test_broken_pipe_ends_quietly():
         assert "Traceback" not in result.stderr and "BrokenPipe" not in result.stderr, result.stderr
 
 
-def test_progress_bar_counts_finished_steps(tmp_path):
+def test_progress_bar_counts_finished_steps(runtime, tmp_path):
     """On a terminal (a pseudo-terminal made by `script`) the bar moves while the run goes on."""
     ugpcl = __import__("pathlib").Path(sys.executable).parent / "ugpcl"
-    # the naive all-pairs kernel at the dense start: about 0.1 s a step on 2 cores, so the bar has time to move
-    cmd = f"{ugpcl} run boids --steps 40 --set max_object_num=4096 variant=naive --out {tmp_path / 'x.npz'}"
+    # the naive all-pairs kernel at the dense start, about 0.1 s a step (4096 boids on 2 CPU cores, 131072 on an
+    # H100): the bar, redrawn at most every 0.1 s, has time to move
+    n = 131072 if runtime.is_gpu else 4096
+    cmd = f"{ugpcl} run boids --steps 40 --set max_object_num={n} variant=naive --out {tmp_path / 'x.npz'}"
     result = subprocess.run(["script", "-qc", cmd, "/dev/null"], capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout
     counts = [int(m) for m in __import__("re").findall(r"\| *(\d+)/40 \[", result.stdout)]
