@@ -345,6 +345,37 @@ def test_kernels_leave_walls_their_boundary_kernel_would_not_change(runtime, see
     np.testing.assert_array_equal(sim.state()[field], produced)
 
 
+@pytest.mark.parametrize("w, h", [(4, 3), (8, 4), (12, 9), (16, 17), (40, 24), (4, 30)])
+def test_rows_sweep_is_project_step2_bit_for_bit(runtime, seed, w, h):
+    """ProjectStep2Rows (strips of 4 cells x ROWS_PER_ITEM rows, what GPUs run) gives ProjectStep2's pressures, walls
+    and corners included, bit for bit: the same sums in the same order. Odd heights end in a part strip."""
+    pressures = {}
+    for kernel in ("ProjectStep2", "ProjectStep2Rows"):  # the same fields for both
+        sim = make(runtime, w, h, visc=0.01)
+        sim.set_fields(**random_fields(np.random.default_rng(seed), w, h))
+        sim.sweep_kernel = kernel
+        sim.project_step1()
+        sim.pressure.read.set(np.random.default_rng(seed + 1).uniform(-1, 1, (h, w)).astype(np.float32))
+        sim.project_step2(3)
+        pressures[kernel] = sim.pressure.read.get()
+    assert np.abs(pressures["ProjectStep2"]).max() > 0
+    np.testing.assert_array_equal(pressures["ProjectStep2Rows"], pressures["ProjectStep2"])
+
+
+def test_sweep_kernel_is_chosen_by_device_and_checked(runtime):
+    sim = make(runtime, 12, 8)
+    assert sim.sweep_kernel == ("ProjectStep2Rows" if runtime.is_gpu else "ProjectStep2")
+    assert sim.stats()["sweep kernel"] == sim.sweep_kernel
+    for w, variant in ((10, "fixed"), (12, "book")):
+        with pytest.raises(ValueError, match="sweep_kernel ProjectStep2Rows needs variant=fixed and a width"):
+            make(runtime, w, 8, variant=variant).sweep_kernel = "ProjectStep2Rows"
+    with pytest.raises(ValueError, match="sweep_kernel must be"):
+        sim.sweep_kernel = "Jacobi"
+    sim.sweep_kernel = "ProjectStep2Rows"
+    sim.update(variant="book")  # a live switch: the book's float4 sweep, as ProjectStep2Rows cannot run it
+    assert sim.sweep_kernel == "ProjectStep2"
+
+
 @pytest.mark.parametrize("variant", VARIANTS)
 def test_advection_matches_reference(runtime, seed, variant):
     rng = np.random.default_rng(seed)
@@ -690,6 +721,11 @@ def test_kernels_on_oclgrind(oclgrind, variant):
         sim.update(stroke="none")
         sim.step()  # the same without AddSource* (AdvectDensityFromExt with no brush)
         assert np.isfinite(sim.state()["density"]).all() and sim.state()["density"].max() > 0
+    if variant == "fixed":  # the GPUs' strip sweep: two strips of 4 cells, part strips of rows at the top
+        strips = Simulation(oclgrind, Params(width=8, height=7, local_size=(4, 4), stroke="line"))
+        strips.sweep_kernel = "ProjectStep2Rows"
+        strips.step()
+        assert np.isfinite(strips.state()["prev"]).all()
     sim.project_step1()
     sim.set_boundary_div_positive()  # fixed: on the pressure field (stride 1)
     sim.project_step3()

@@ -54,6 +54,7 @@ KERNELS = (
     "DiffuseVelocity",
     "ProjectStep1",
     "ProjectStep2",
+    "ProjectStep2Rows",
     "ProjectStep3",
     "SetBoundaryVelocity",
     "SwapVelocity",
@@ -68,10 +69,17 @@ KERNELS = (
     "SetBoundaryDivergence",
     "SetBoundaryDivPositive",
 )
-"""The kernels of stable_fluids_2d.cl in host call order (its header's list); the last three only for set_boundary_*."""
+"""The kernels of stable_fluids_2d.cl in host call order (its header's list); the last three only for set_boundary_*.
+ProjectStep2Rows is ProjectStep2 in strips (sweep_kernel), built for the fixed variant only."""
 LOCAL_SIZE_STREAMING = (64, 4)
 """A work-group shape for large grids on GPUs (`--set local_size=64,4`): on the H100 a 4096^2 pressure sweep takes
 84.5 us with it against 104 us with the book's 32 x 32 (more, smaller groups in flight; rows of 256 bytes)."""
+ROWS_PER_ITEM = 2
+"""Rows of the 4-cell strip one work-item of ProjectStep2Rows sweeps (its ROWS define)."""
+ROWS_LOCAL = (64, 2)
+"""ProjectStep2Rows' work-group shape, in strips. On the H100 (2026-11-25) a 4096^2 sweep takes 71.2 us with 2 rows
+and 64 x 2 strips (97 % of the copy bandwidth; 70.5-71.5 us for 1 or 2 rows and any shape tried, 72.6-77 us with 4
+rows), against 84.3 us for ProjectStep2 with 64 x 4 work-items and 101 us with the book's 32 x 32."""
 SETS_WALLS = frozenset(
     {"DiffuseVelocity", "ProjectStep1", "ProjectStep2", "AdvectVelocity", "DiffuseDensity", "AdvectDensity"}
     | {"AdvectDensityFromExt"}
@@ -173,6 +181,7 @@ class Simulation(BaseSimulation):
         self.last_brush: tuple[float, float, float, float] | None = None
         self.stroke_start = 0
         self._config_key = self._configured_for = None  # sizes and kernels follow the grid, local_size, variant
+        self._sweep_kernel = None  # None: the device's choice (sweep_kernel)
 
     # {{{ programs and launches
 
@@ -183,13 +192,7 @@ class Simulation(BaseSimulation):
         key = (p.local_size, p.variant)
         if self._config_key != key:
             device = self.runtime.device
-            size = list(p.local_size)  # halve the larger side until the device can run the shape
-            while size[0] * size[1] > device.max_work_group_size or any(
-                s > m for s, m in zip(size, device.max_work_item_sizes[:2], strict=True)
-            ):
-                largest = size.index(max(size))
-                size[largest] = max(1, size[largest] // 2)
-            self._local = (size[0], size[1])
+            size = self._local = fitted_shape(p.local_size, device)
             grid = (round_up(self.w, size[0]), round_up(self.h, size[1]))
             # the kernels that set the walls themselves: rows past the grid hold one work-item per wall cell
             walls = 2 * self.w + 2 * self.h - 4
@@ -197,13 +200,46 @@ class Simulation(BaseSimulation):
             wall_rows = -(-wall_groups // (grid[0] // size[0]))  # rows of work-groups the wall cells fill
             with_walls = (grid[0], grid[1] + wall_rows * size[1])
             self._program = self.runtime.program(
-                STEM, THREAD_X=size[0], THREAD_Y=size[1], BOOK_VARIANT=p.variant == "book"
+                STEM, THREAD_X=size[0], THREAD_Y=size[1], BOOK_VARIANT=p.variant == "book", ROWS=ROWS_PER_ITEM
             )
             self._launches = {
-                name: (self._program.kernel(name), with_walls if name in SETS_WALLS else grid) for name in KERNELS
+                name: (self._program.kernel(name), with_walls if name in SETS_WALLS else grid, self._local)
+                for name in KERNELS
+                if name != "ProjectStep2Rows"  # its own launch shape, below
             }
+            if p.variant == "fixed" and self.w % 4 == 0:  # strips of 4 cells x ROWS_PER_ITEM rows, walls included
+                rows_local = fitted_shape(ROWS_LOCAL, device)
+                strips = (round_up(self.w // 4, rows_local[0]), round_up(-(-self.h // ROWS_PER_ITEM), rows_local[1]))
+                self._launches["ProjectStep2Rows"] = (self._program.kernel("ProjectStep2Rows"), strips, rows_local)
             self._config_key = key
         self._configured_for = p
+
+    @property
+    def sweep_kernel(self) -> str:
+        """The pressure sweep's kernel: ProjectStep2Rows on GPUs where it can run (variant fixed, w a multiple of
+        4), else the book's one-cell ProjectStep2; the same pressures bit for bit. Settable (tests, the bench)."""
+        self._configure()
+        rows = "ProjectStep2Rows" in self._launches
+        if self._sweep_kernel is None or (self._sweep_kernel == "ProjectStep2Rows" and not rows):
+            return "ProjectStep2Rows" if rows and self.runtime.is_gpu else "ProjectStep2"
+        return self._sweep_kernel  # (a ProjectStep2Rows set before a live switch to variant=book falls back above)
+
+    @sweep_kernel.setter
+    def sweep_kernel(self, name: str | None) -> None:
+        """A kernel name, or None for the device's choice."""
+        self._configure()
+        if name == "ProjectStep2Rows" and "ProjectStep2Rows" not in self._launches:
+            raise ValueError(f"sweep_kernel ProjectStep2Rows needs variant=fixed and a width divisible by 4, got "
+                             f"variant={self.params.variant}, width {self.w}")  # fmt: skip
+        if name not in (None, "ProjectStep2", "ProjectStep2Rows"):
+            raise ValueError(f"sweep_kernel must be ProjectStep2 or ProjectStep2Rows, got {name!r}")
+        self._sweep_kernel = name
+
+    @property
+    def rows_local_size(self) -> tuple[int, int] | None:
+        """ProjectStep2Rows' work-group shape in strips (ROWS_LOCAL fitted to the device); None where it cannot run."""
+        self._configure()
+        return self._launches["ProjectStep2Rows"][2] if "ProjectStep2Rows" in self._launches else None
 
     @property
     def local_size(self) -> tuple[int, int]:
@@ -217,12 +253,12 @@ class Simulation(BaseSimulation):
         return self._program
 
     def _grid(self, name: str, *args) -> None:
-        """Launch a grid kernel over every cell (a SETS_WALLS kernel also over its wall work-groups); ``args`` in the
-        kernel's order (buffers, w, h, scalars)."""
+        """Launch a grid kernel over every cell (a SETS_WALLS kernel also over its wall work-groups, ProjectStep2Rows
+        over its strips); ``args`` in the kernel's order (buffers, w, h, scalars)."""
         if self.params is not self._configured_for:
             self._configure()
-        kernel, size = self._launches[name]
-        kernel(size, self._local, *args)
+        kernel, size, local = self._launches[name]
+        kernel(size, local, *args)
 
     def _boundary(self, name: str, field: cla.Array, *args) -> None:
         """SetBoundary<name> on ``field`` (``args`` follow it: DivPositive's stride): one launch over the
@@ -293,8 +329,9 @@ class Simulation(BaseSimulation):
         ProjectStep1 filled, not on prev."""
         book, (w, h) = self.params.variant == "book", self.dims
         p, extra = (self.prev, ()) if book else (self.pressure, (self.divergence,))
+        kernel = self.sweep_kernel  # ProjectStep2, or its strips on GPUs: the same arguments
         for _ in range(self.params.gs_iterations if sweeps is None else sweeps):
-            self._grid("ProjectStep2", p.read, p.write, *extra, w, h)
+            self._grid(kernel, p.read, p.write, *extra, w, h)
             p.swap()
 
     def project_step3(self) -> None:
@@ -475,6 +512,7 @@ class Simulation(BaseSimulation):
             "variant": self.params.variant,
             "solver": self.params.solver,
             "local size": self.local_size,
+            "sweep kernel": self.sweep_kernel,
             "max density": float(state["density"].max()),
             "total density": float(state["density"].sum(dtype=np.float64)),
             "max speed": float(speed.max()),
@@ -484,6 +522,17 @@ class Simulation(BaseSimulation):
         }
 
     # }}}
+
+
+def fitted_shape(wanted: tuple[int, int], device) -> tuple[int, int]:
+    """``wanted`` (a 2-D work-group shape) with its larger side halved until ``device`` can run it."""
+    size = list(wanted)
+    while size[0] * size[1] > device.max_work_group_size or any(
+        s > m for s, m in zip(size, device.max_work_item_sizes[:2], strict=True)
+    ):
+        largest = size.index(max(size))
+        size[largest] = max(1, size[largest] // 2)
+    return size[0], size[1]
 
 
 def stroke_brush(stroke: str, frame: int, frames: int) -> tuple[float, float, float, float] | None:
@@ -529,17 +578,23 @@ neighbours' p come from cache. The fixed variant's ProjectStep2 moves just that 
 The bench's ``% copy bw`` is this traffic's share of the device's copy bandwidth."""
 
 
+BENCH_SWEEPS = (("ProjectStep2", Params.local_size), ("ProjectStep2", LOCAL_SIZE_STREAMING), ("ProjectStep2Rows", None))
+"""The bench's sweep configurations: the book's one-cell kernel with its 32 x 32 groups and with 64 x 4, and the
+strips (ROWS_LOCAL)."""
+
+
 def bench(runtime, sizes=None) -> list[dict]:
-    """Per n x n grid (scene coefficients, circle stroke held, gs_iterations 2): ms per step (the whole Update: 2
+    """Per n x n grid (scene coefficients, circle stroke held, gs_iterations 2) and sweep configuration
+    (BENCH_SWEEPS; ``local`` = work-items, or strips of 4 x ROWS_PER_ITEM cells): ms per step (the whole Update: 2
     diffusions, 2 projections, 2 advections, 22 launches, the queue finished after each step) and cell updates/s
-    (cells x steps/s); one Jacobi sweep of the pressure solve (ProjectStep2 with its walls, one launch) in us, timed
-    over 20 sweeps back to back and one finish as a solve runs them, as sweeps/s and cell updates/s, and as the
-    least traffic a sweep needs (JACOBI_BYTES_PER_CELL) per second. Each grid with the book's 32 x 32 work-groups
-    and with LOCAL_SIZE_STREAMING ("local")."""
+    (cells x steps/s); one Jacobi sweep of the pressure solve (one launch, walls included) in us, timed over 20
+    sweeps back to back and one finish as a solve runs them, as sweeps/s and cell updates/s, and as the least
+    traffic a sweep needs (JACOBI_BYTES_PER_CELL) per second."""
     sizes = sizes or ([256, 512, 1024, 2048, 4096] if runtime.is_gpu else [256, 512, 1024])
     rows = []
-    for n, local_size in itertools.product(sizes, (Params.local_size, LOCAL_SIZE_STREAMING)):
-        sim = Simulation(runtime, Params(width=n, height=n, stroke_frames=0, local_size=local_size), seed=0)
+    for n, (kernel, local_size) in itertools.product(sizes, BENCH_SWEEPS):
+        sim = Simulation(runtime, Params(width=n, height=n, stroke_frames=0, local_size=local_size or (32, 32)), seed=0)
+        sim.sweep_kernel = kernel
         seconds = seconds_per_step(sim, min_seconds=1.0, max_steps=100)
         sweep = seconds_per_call(
             lambda sim=sim: sim.project_step2(1), runtime.queue, max_calls=50 * SWEEP_BATCH, batch=SWEEP_BATCH
@@ -547,7 +602,8 @@ def bench(runtime, sizes=None) -> list[dict]:
         rows.append(
             {
                 "grid": f"{n}^2",
-                "local": "x".join(map(str, sim.local_size)),
+                "sweep kernel": kernel,
+                "local": "x".join(map(str, sim.local_size if local_size else sim.rows_local_size)),
                 "ms/step": seconds * 1e3,
                 "cell updates/s": n * n / seconds,
                 "us/Jacobi sweep": sweep * 1e6,

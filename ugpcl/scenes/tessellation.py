@@ -372,6 +372,7 @@ FLUID_KERNEL_BYTES = {
     "DiffuseVelocity": 24,  # velocity_in and prev.xy read, velocity_out written
     "ProjectStep1": {"book": 28, "fixed": 36},  # velocity and prev.z read, prev written; fixed: + divergence, pressure
     "ProjectStep2": {"book": 32, "fixed": 12},  # a Jacobi sweep: prev in and out (float4), or p, div in and p out
+    "ProjectStep2Rows": 12,  # the same sweep in strips (fixed only; what GPUs run)
     "ProjectStep3": {"book": 20, "fixed": 24},  # velocity and p read, velocity written; fixed: + prev.x written
     "SwapVelocity": 16,  # velocity read, prev.xy written
     "AdvectVelocity": 16,  # prev.xy read, velocity written
