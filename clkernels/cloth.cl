@@ -16,7 +16,8 @@
 //                with HLSL's normalize, which gives NaN there).
 // Differences from the book: sizes need not be multiples of NUM_THREADS_XY (padding work-items return at once);
 // the pinned row copies its ro values to the rw buffers instead of writing nothing (same result, and the rw
-// buffers hold no stale data whatever the host did); the FIX_NAN guards. The same sums up to float rounding, with
+// buffers hold no stale data whatever the host did); the FIX_NAN guards; the normal is written on a frame's last
+// substep only (write_normal; the book writes it every substep, and only the last one's is drawn). The same sums up to float rounding, with
 // less arithmetic: rest lengths from a table, one rsqrt per spring for its length and direction, the stiffness
 // and the damping (book: vel * damp once per spring) applied once after the neighbour loop.
 
@@ -64,13 +65,16 @@ void CSInit(__global float4* pos, __global float4* prev, __global float4* normal
 }
 
 // Book: CSSimulation. gravity.xyz is added to the force (then scaled by inv_mass, as the book does); sphere.xyz is the
-// collider's centre and sphere.w its radius; dt is one substep (TimeStep / VerletIterationNum).
+// collider's centre and sphere.w its radius; dt is one substep (TimeStep / VerletIterationNum). write_normal = 0
+// skips the normal's store (the host sets it on a frame's last substep only: the normal feeds no force, only the
+// renderer, and its 16 bytes are a fifth of a substep's traffic).
 // The book's force sums, per spring on the cloth, curr_diff * (len - rest_length) * stiffness - vel * damp; here the
 // loop sums curr_diff * (len - rest_length) and counts the springs, and the force is formed once after it.
 __kernel __attribute__((reqd_work_group_size(NUM_THREADS_XY, NUM_THREADS_XY, 1)))
 void CSSimulation(const __global float4* pos_ro, const __global float4* prev_ro, __global float4* pos_rw,
                   __global float4* prev_rw, __global float4* normal_rw, int2 res, float rest, float4 gravity,
-                  float stiffness, float damp, float inv_mass, float dt, int collide, float4 sphere) {
+                  float stiffness, float damp, float inv_mass, float dt, int collide, float4 sphere,
+                  int write_normal) {
     const int2 idx = (int2)(get_global_id(0), get_global_id(1));
     if (idx.x >= res.x || idx.y >= res.y) return;  // padding of the last groups
     const int i = idx.y * res.x + idx.x;
@@ -105,19 +109,13 @@ void CSSimulation(const __global float4* pos_ro, const __global float4* prev_ro,
         const float3 curr_diff = pos_diff * inv_len;
         const float len = len2 * inv_len;
         // normal: sum the cross products of consecutive ring directions less than 90 degrees apart
-        if (iters > 0.0f && k < RING && dot(curr_diff, last_diff) > 0.0f) n += cross(last_diff, curr_diff);
+        if (write_normal && iters > 0.0f && k < RING && dot(curr_diff, last_diff) > 0.0f)
+            n += cross(last_diff, curr_diff);
         last_diff = curr_diff;
         stretch += curr_diff * (len - rest * REST_SCALE[k]);  // rest_length: rest, rest*sqrt2 or 2*sqrt2*rest
         springs += 1.0f;
         if (k < RING) iters += 1.0f;
     }
-    // book: n / -(iters - 1); iters >= 3 (a corner has 3 ring neighbours), so only the sign survives the normalize
-    n = -n;
-#if FIX_NAN
-    n = dot(n, n) > 0.0f ? normalize(n) : normal_rw[i].xyz;  // every ring pair >= 90 degrees apart: keep the last
-#else
-    n = hlsl_normalize(n);  // book: NaN when n = 0
-#endif
 
     // the Verlet velocity vel = (pos - pos_prev) / dt damps by vel * damp per spring: one division, not three
     const float3 vel_damp = (pos - pos_prev) * (damp * springs / dt);
@@ -134,6 +132,14 @@ void CSSimulation(const __global float4* pos_ro, const __global float4* prev_ro,
     }
     pos_rw[i] = (float4)(p, 1.0f);
     prev_rw[i] = (float4)(pos, 1.0f);
+    if (!write_normal) return;  // (the normal's sums above were skipped too)
+    // book: n / -(iters - 1); iters >= 3 (a corner has 3 ring neighbours), so only the sign survives the normalize
+    n = -n;
+#if FIX_NAN
+    n = dot(n, n) > 0.0f ? normalize(n) : normal_rw[i].xyz;  // every ring pair >= 90 degrees apart: keep the last
+#else
+    n = hlsl_normalize(n);  // book: NaN when n = 0
+#endif
     normal_rw[i] = (float4)(n, 1.0f);
 }
 
@@ -144,7 +150,7 @@ void CSSimulation(const __global float4* pos_ro, const __global float4* prev_ro,
 __kernel void CSSimulation_cpu(const __global float4* pos_ro, const __global float4* prev_ro, __global float4* pos_rw,
                                __global float4* prev_rw, __global float4* normal_rw, int2 res, float rest,
                                float4 gravity, float stiffness, float damp, float inv_mass, float dt, int collide,
-                               float4 sphere) {
+                               float4 sphere, int write_normal) {
     const int x0 = get_global_id(0) * CPU_LANES, y = get_global_id(1);
     if (x0 >= res.x || y >= res.y) return;  // a launch larger than the cloth
     const int lanes = min(CPU_LANES, res.x - x0);  // the row's last work-item may hold fewer particles
@@ -253,6 +259,6 @@ __kernel void CSSimulation_cpu(const __global float4* pos_ro, const __global flo
     for (int l = 0; l < lanes; l++) {
         pos_rw[first + l] = (float4)(out[0][l], out[1][l], out[2][l], 1.0f);
         prev_rw[first + l] = (float4)(wx[2][l + 2], wy[2][l + 2], wz[2][l + 2], 1.0f);
-        normal_rw[first + l] = (float4)(out[3][l], out[4][l], out[5][l], 1.0f);
+        if (write_normal) normal_rw[first + l] = (float4)(out[3][l], out[4][l], out[5][l], 1.0f);
     }
 }

@@ -227,6 +227,25 @@ def test_live_parameters_and_a_new_sphere_reach_the_next_substep(runtime, kernel
 
 
 @pytest.mark.parametrize("kernel", SIMULATION_KERNELS)
+def test_a_frame_writes_the_normal_on_its_last_substep_only(runtime, kernel, seed):
+    """step() skips the normal's store on all but a frame's last substep: positions and the frame's normal are those
+    of substeps that all write it, bit for bit, and a substep without the store leaves the normal as it was."""
+    width, height, rest = 15, 11, 0.05
+    frames = [make(runtime, (width, height), kernel, rest_length=rest, substeps=4) for _ in range(2)]
+    for sim in frames:
+        sim.set_positions(*perturbed(width, height, rest, seed))
+    frames[0].step()
+    for _ in range(4):
+        frames[1].cs_simulation()  # write_normal: every substep, as the book
+    for name in ("pos", "prev", "normal"):
+        np.testing.assert_array_equal(frames[0].read(name), frames[1].read(name), err_msg=name)
+    normal, pos = frames[0].read("normal"), frames[0].read("pos")
+    frames[0].cs_simulation(write_normal=False)
+    np.testing.assert_array_equal(frames[0].read("normal"), normal)
+    assert not np.array_equal(frames[0].read("pos"), pos)
+
+
+@pytest.mark.parametrize("kernel", SIMULATION_KERNELS)
 def test_collision_pushes_particles_to_the_sphere_surface(runtime, kernel):
     sim = make(runtime, (16, 16), kernel, rest_length=0.05, timestep=0.005, substeps=1, gravity=(0.0, 0.0, 0.0))
     sim.sphere_params = np.array([0.0, -0.1, 0.05, 0.3], np.float32)  # centre just behind the flat cloth
