@@ -368,7 +368,7 @@ __kernel void ProjectStep2Rows(const __global float* pressure_in, __global float
         float4 p = (vload4(0, divergence + i) + (west + east + below + above)) / 4.0f;  // pressure_at's order
         if (left) p.s0 = p.s1;   // SetBoundaryDivPositive: the left wall copies its inner cell
         if (right) p.s3 = p.s2;  // and the right wall
-        if (r >= y0) vstore4(p, 0, pressure_out + i);  // row r0 = 1 may be below a strip that starts at h-1
+        if (r >= y0 && r <= y1) vstore4(p, 0, pressure_out + i);  // (rows 1 and h-2 may lie outside the strip)
         if (r == 1 && y0 == 0) {  // the bottom wall copies row 1; its corners are the mean of their two edge cells
             if (left) p.s0 = wall_copy(0, 0, (int2)(1, 1), p.s0);
             if (right) p.s3 = wall_copy(w - 1, 0, (int2)(w - 2, 1), p.s3);

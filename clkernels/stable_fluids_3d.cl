@@ -27,6 +27,8 @@
 //                        so B(P) would change nothing; fixed: also divergence = div, pressure = 0
 //   ProjectStep2         book: prev_in -> prev_out, fixed: pressure_in, divergence -> pressure_out: one Jacobi sweep
 //                        of the Poisson equation for p (gs_iterations) +B(P)
+//   ProjectStep2Rows     the same sweep (fixed, w % 4 == 0) in strips of 4 x 1 x ROWS cells along z: what GPUs run
+//                        (Simulation.sweep_kernel)
 //   ProjectStep3         velocity -= 0.5*(p(+1) - p(-1))*(w | h | d) per axis (own cell, in place); fixed: prev.x = p
 //   SetBoundaryVelocity  after ProjectStep3 (in place: its walls would read cells other work-items write)
 //   SwapVelocity         prev.xyz = velocity (a one-way copy despite the name, as the book)
@@ -48,6 +50,7 @@
 //   corners read only the face cells' other components (float pointers, so no byte is read while another work-item
 //   writes it).
 // Build defines: THREAD_X, THREAD_Y, THREAD_Z = work-group shape of the grid kernels (book: numthreads 8, 8, 4);
+//   ROWS = cells along z of a ProjectStep2Rows strip (fixed only);
 //   BOOK_VARIANT = 1: the original's divergence -0.5*du/w + dv/h + dw/d (operator precedence) and a back-trace that
 //   is never clamped (its clamp() discards the result); 0: Stam's -0.5*(du/w + dv/h + dw/d), back-trace clamped
 //   to [0.5, n - 1.5], the pressure solve in the float divergence and pressure fields. Bugs of Solver3D.compute
@@ -407,6 +410,53 @@ void ProjectStep2(const __global float* pressure_in, __global float* pressure_ou
 #endif
 #undef PRESSURE_AT
 }
+
+// ProjectStep2 for GPUs (fixed, w % 4 == 0): one work-item sweeps a column of 4 x 1 x ROWS cells along z, walls
+// included, keeping the planes below and above in registers, with 16-byte loads and stores. Every cell, wall or not,
+// is wall_copy(its wall axes, p at its inner cell); the strip computes p at (clamp(x), clamp(y), clamp(z)) as
+// pressure_at does (the same sum in the same order): ProjectStep2's values bit for bit. Global size (w / 4, h,
+// ceil(d / ROWS)); no work-group shape is required.
+#if !BOOK_VARIANT
+#ifndef ROWS
+#error "build with -D ROWS=<cells per strip along z> (the host's ROWS_PER_ITEM)"
+#endif
+INLINE float4 wall_copy4(int4 walls, float4 v) {
+    return (float4)(wall_copy(walls.s0, v.s0), wall_copy(walls.s1, v.s1), wall_copy(walls.s2, v.s2),
+                    wall_copy(walls.s3, v.s3));
+}
+
+__kernel void ProjectStep2Rows(const __global float* pressure_in, __global float* pressure_out,
+                               const __global float* divergence, int w, int h, int d) {
+    const int x0 = 4 * get_global_id(0), y = get_global_id(1), z0 = ROWS * get_global_id(2);
+    if (x0 >= w || y >= h || z0 >= d) return;  // padding of the rounded-up global size
+    const int z1 = min(z0 + ROWS, d) - 1;  // the strip's cells z0 .. z1; its z walls copy planes 1 and d-2
+    const int r0 = clamp(z0, 1, d - 2), r1 = clamp(z1, 1, d - 2);  // the interior planes it computes
+    const int cy = clamp(y, 1, h - 2), plane = w * h;
+    const bool left = x0 == 0, right = x0 + 4 == w;
+    // wall axes of the strip's cells off the z walls: x (the first or last lane of the row), y (a y wall row)
+    const int4 walls = (int4)(left, 0, 0, right) + (cy != y);
+    const int column = cy * w + x0;  // (x0, cy) in a plane
+    float4 below = vload4(0, pressure_in + (r0 - 1) * plane + column);
+    float4 mid = vload4(0, pressure_in + r0 * plane + column);
+    for (int r = r0; r <= r1; r++) {
+        const int i = r * plane + column;
+        const float4 above = vload4(0, pressure_in + i + plane);
+        const float4 west = (float4)(left ? 0.0f : pressure_in[i - 1], mid.s012);
+        const float4 east = (float4)(mid.s123, right ? 0.0f : pressure_in[i + 4]);
+        const float4 south = vload4(0, pressure_in + i - w), north = vload4(0, pressure_in + i + w);
+        // pressure_at's order: x-1, x+1, y-1, y+1, z-1, z+1
+        float4 p = (vload4(0, divergence + i) + (west + east + south + north + below + above)) / 6.0f;
+        if (left) p.s0 = p.s1;   // the x walls' inner cells
+        if (right) p.s3 = p.s2;
+        const int out = y * w + x0;  // (x0, y) in a plane
+        if (r >= z0 && r <= z1) vstore4(wall_copy4(walls, p), 0, pressure_out + r * plane + out);  // not a wall
+        if (r == 1 && z0 == 0) vstore4(wall_copy4(walls + 1, p), 0, pressure_out + out);  // the z = 0 wall
+        if (r == d - 2 && z1 == d - 1) vstore4(wall_copy4(walls + 1, p), 0, pressure_out + (d - 1) * plane + out);
+        below = mid;
+        mid = above;
+    }
+}
+#endif
 
 // Subtract the gradient of p (central differences, scaled back from uv units: book's / uvd). fixed: p from its
 // float field, copied into prev.x, so prev holds (p, div) afterwards as the book's does.

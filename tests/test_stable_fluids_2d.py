@@ -367,7 +367,7 @@ def test_sweep_kernel_is_chosen_by_device_and_checked(runtime):
     assert sim.sweep_kernel == ("ProjectStep2Rows" if runtime.is_gpu else "ProjectStep2")
     assert sim.stats()["sweep kernel"] == sim.sweep_kernel
     for w, variant in ((10, "fixed"), (12, "book")):
-        with pytest.raises(ValueError, match="sweep_kernel ProjectStep2Rows needs variant=fixed and a width"):
+        with pytest.raises(ValueError, match="sweep_kernel ProjectStep2Rows needs variant=fixed and a grid width"):
             make(runtime, w, 8, variant=variant).sweep_kernel = "ProjectStep2Rows"
     with pytest.raises(ValueError, match="sweep_kernel must be"):
         sim.sweep_kernel = "Jacobi"

@@ -921,6 +921,36 @@ def test_view_keys_change_the_simulation(runtime, gl):
 # }}}
 
 
+@pytest.mark.parametrize("shape", [(4, 3, 3), (8, 5, 7), (12, 6, 9), (8, 3, 10), (16, 9, 17)])
+def test_rows_sweep_is_project_step2_bit_for_bit(runtime, shape):
+    """ProjectStep2Rows (strips of 4 x 1 x ROWS_PER_ITEM cells along z, what GPUs run) gives ProjectStep2's
+    pressures, faces, edges and corners included, bit for bit. Depths that are not multiples of the strip end in a
+    part strip."""
+    w, h, d = shape
+    pressures = {}
+    for kernel in ("ProjectStep2", "ProjectStep2Rows"):  # the same fields for both
+        sim = make(runtime, shape, local_size=(4, 4, 2))
+        sim.sweep_kernel = kernel
+        rng = np.random.default_rng(7)
+        sim.project_step1()
+        sim.pressure.read.set(rng.uniform(-1, 1, (d, h, w)).astype(np.float32))
+        sim.divergence.set(rng.uniform(-1, 1, (d, h, w)).astype(np.float32))
+        sim.project_step2(3)
+        pressures[kernel] = sim.pressure.read.get()
+    assert np.abs(pressures["ProjectStep2"]).max() > 0
+    np.testing.assert_array_equal(pressures["ProjectStep2Rows"], pressures["ProjectStep2"])
+
+
+def test_sweep_kernel_is_chosen_by_device_and_checked(runtime):
+    sim = make(runtime, (8, 5, 5))
+    assert sim.sweep_kernel == ("ProjectStep2Rows" if runtime.is_gpu else "ProjectStep2")
+    with pytest.raises(ValueError, match="sweep_kernel ProjectStep2Rows needs variant=fixed and a grid width"):
+        make(runtime, (9, 5, 5)).sweep_kernel = "ProjectStep2Rows"
+    sim.sweep_kernel = "ProjectStep2Rows"
+    sim.update(variant="book")  # a live switch: the book's float4 sweep, as ProjectStep2Rows cannot run it
+    assert sim.sweep_kernel == "ProjectStep2"
+
+
 @pytest.mark.oclgrind
 @pytest.mark.parametrize("variant", ["fixed", "book"])
 def test_kernels_on_oclgrind(oclgrind, variant):
@@ -955,3 +985,8 @@ def test_kernels_on_oclgrind(oclgrind, variant):
     sim.set_boundary_p()  # on prev.x (stride 4)
     sim.set_boundary_div()
     sim.set_boundary_density()
+    if variant == "fixed":  # the GPUs' strip sweep: 2 strips across, a part strip along z
+        strips = Simulation(oclgrind, Params(width=8, height=4, depth=6, local_size=(4, 4, 2), source_radius=0.4))
+        strips.sweep_kernel = "ProjectStep2Rows"
+        strips.step()
+        assert np.isfinite(strips.state()["prev"]).all()

@@ -148,7 +148,41 @@ class Params(BaseParams):
             raise self.broken(self.limits[1], f"{w * h} cells")
 
 
-class Simulation(BaseSimulation):
+class StripSweeps:
+    """The pressure sweep's kernel choice, shared by the 2D and 3D simulations: ProjectStep2Rows (strips of 4 cells)
+    where ``_configure`` made its launch (variant fixed, a grid width divisible by 4) and the device is a GPU, else
+    the book's one-cell ProjectStep2; the same pressures bit for bit."""
+
+    _sweep_kernel: str | None = None  # None: the device's choice
+
+    @property
+    def sweep_kernel(self) -> str:
+        """ProjectStep2Rows on GPUs where it can run, else ProjectStep2. Settable (tests, the bench); None restores
+        the device's choice."""
+        self._configure()
+        rows = "ProjectStep2Rows" in self._launches
+        if self._sweep_kernel is None or (self._sweep_kernel == "ProjectStep2Rows" and not rows):
+            return "ProjectStep2Rows" if rows and self.runtime.is_gpu else "ProjectStep2"
+        return self._sweep_kernel  # (a ProjectStep2Rows set before a live switch to variant=book falls back above)
+
+    @sweep_kernel.setter
+    def sweep_kernel(self, name: str | None) -> None:
+        self._configure()
+        if name == "ProjectStep2Rows" and "ProjectStep2Rows" not in self._launches:
+            raise ValueError(f"sweep_kernel ProjectStep2Rows needs variant=fixed and a grid width divisible by 4, "
+                             f"got variant={self.params.variant}, width {int(self.dims[0])}")  # fmt: skip
+        if name not in (None, "ProjectStep2", "ProjectStep2Rows"):
+            raise ValueError(f"sweep_kernel must be ProjectStep2 or ProjectStep2Rows, got {name!r}")
+        self._sweep_kernel = name
+
+    @property
+    def rows_local_size(self) -> tuple[int, ...] | None:
+        """ProjectStep2Rows' work-group shape in strips; None where it cannot run."""
+        self._configure()
+        return self._launches["ProjectStep2Rows"][2] if "ProjectStep2Rows" in self._launches else None
+
+
+class Simulation(StripSweeps, BaseSimulation):
     """Velocity, density and the multiplexed prev field on a w x h grid; one step = the original's Update()."""
 
     Params = Params
@@ -181,7 +215,7 @@ class Simulation(BaseSimulation):
         self.last_brush: tuple[float, float, float, float] | None = None
         self.stroke_start = 0
         self._config_key = self._configured_for = None  # sizes and kernels follow the grid, local_size, variant
-        self._sweep_kernel = None  # None: the device's choice (sweep_kernel)
+        self._sweep_kernel = None  # the device's choice (StripSweeps)
 
     # {{{ programs and launches
 
@@ -213,33 +247,6 @@ class Simulation(BaseSimulation):
                 self._launches["ProjectStep2Rows"] = (self._program.kernel("ProjectStep2Rows"), strips, rows_local)
             self._config_key = key
         self._configured_for = p
-
-    @property
-    def sweep_kernel(self) -> str:
-        """The pressure sweep's kernel: ProjectStep2Rows on GPUs where it can run (variant fixed, w a multiple of
-        4), else the book's one-cell ProjectStep2; the same pressures bit for bit. Settable (tests, the bench)."""
-        self._configure()
-        rows = "ProjectStep2Rows" in self._launches
-        if self._sweep_kernel is None or (self._sweep_kernel == "ProjectStep2Rows" and not rows):
-            return "ProjectStep2Rows" if rows and self.runtime.is_gpu else "ProjectStep2"
-        return self._sweep_kernel  # (a ProjectStep2Rows set before a live switch to variant=book falls back above)
-
-    @sweep_kernel.setter
-    def sweep_kernel(self, name: str | None) -> None:
-        """A kernel name, or None for the device's choice."""
-        self._configure()
-        if name == "ProjectStep2Rows" and "ProjectStep2Rows" not in self._launches:
-            raise ValueError(f"sweep_kernel ProjectStep2Rows needs variant=fixed and a width divisible by 4, got "
-                             f"variant={self.params.variant}, width {self.w}")  # fmt: skip
-        if name not in (None, "ProjectStep2", "ProjectStep2Rows"):
-            raise ValueError(f"sweep_kernel must be ProjectStep2 or ProjectStep2Rows, got {name!r}")
-        self._sweep_kernel = name
-
-    @property
-    def rows_local_size(self) -> tuple[int, int] | None:
-        """ProjectStep2Rows' work-group shape in strips (ROWS_LOCAL fitted to the device); None where it cannot run."""
-        self._configure()
-        return self._launches["ProjectStep2Rows"][2] if "ProjectStep2Rows" in self._launches else None
 
     @property
     def local_size(self) -> tuple[int, int]:

@@ -43,7 +43,7 @@ from ..runtime import round_up
 from ..scene import Params as BaseParams
 from ..scene import Scene, check_dt, param
 from ..scene import Simulation as BaseSimulation
-from .stable_fluids_2d import JACOBI_BYTES_PER_CELL
+from .stable_fluids_2d import JACOBI_BYTES_PER_CELL, StripSweeps
 
 STEM = "stable_fluids_3d"
 MAX_CELLS = 1 << 25
@@ -54,6 +54,7 @@ KERNELS = (
     "DiffuseVelocity",
     "ProjectStep1",
     "ProjectStep2",
+    "ProjectStep2Rows",
     "ProjectStep3",
     "SetBoundaryVelocity",
     "SwapVelocity",
@@ -68,7 +69,14 @@ KERNELS = (
     "SetBoundaryDiv",
     "SetBoundaryP",
 )
-"""The kernels of stable_fluids_3d.cl in host call order (its header's list); the last three only for set_boundary_*."""
+"""The kernels of stable_fluids_3d.cl in host call order (its header's list); the last three only for set_boundary_*.
+ProjectStep2Rows is ProjectStep2 in strips (sweep_kernel), built for the fixed variant only."""
+ROWS_PER_ITEM = 2
+"""Cells along z of the 4-cell strip one work-item of ProjectStep2Rows sweeps (its ROWS define)."""
+ROWS_LOCAL = (32, 4, 1)
+"""ProjectStep2Rows' work-group shape, in strips. On the H100 (2026-11-25, an exploration run) a 256^3 sweep takes
+75.1 us with it and 2 cells along z (74.9-77.6 us for 2 or 4 cells in nine shapes; 92 % of the copy bandwidth),
+against 127.1 us for ProjectStep2 in the book's 8 x 8 x 4 groups; 128^3: 16.1 against 19.9 us."""
 SETS_WALLS = frozenset(
     {"DiffuseVelocity", "ProjectStep1", "ProjectStep2", "AdvectVelocity", "DiffuseDensity", "AdvectDensity"}
     | {"AdvectDensityFromExt"}
@@ -128,7 +136,7 @@ class Params(BaseParams):
             raise self.broken(self.limits[0], f"{cells} cells")
 
 
-class Simulation(BaseSimulation):
+class Simulation(StripSweeps, BaseSimulation):
     """Velocity, density and the multiplexed prev field on a w x h x d grid; one step = the original's Update()."""
 
     Params = Params
@@ -197,21 +205,34 @@ class Simulation(BaseSimulation):
         tx, ty, tz = self.local_size
         book = self.params.variant == "book"
         if self._built_for != book:
-            self._program = self.runtime.program(STEM, THREAD_X=tx, THREAD_Y=ty, THREAD_Z=tz, BOOK_VARIANT=book)
+            self._program = self.runtime.program(
+                STEM, THREAD_X=tx, THREAD_Y=ty, THREAD_Z=tz, BOOK_VARIANT=book, ROWS=ROWS_PER_ITEM
+            )
             self._launches = {
-                name: (self._program.kernel(name), self._walls_size if name in SETS_WALLS else self.global_size)
+                name: (
+                    self._program.kernel(name),
+                    self._walls_size if name in SETS_WALLS else self.global_size,
+                    self.local_size,
+                )
                 for name in KERNELS
+                if name != "ProjectStep2Rows"  # its own launch shape, below
             }
+            w, h, d = (int(v) for v in self.dims)
+            if not book and w % 4 == 0:  # strips of 4 x 1 x ROWS_PER_ITEM cells, walls included
+                local = self._fit_local_size(ROWS_LOCAL)
+                strips = (w // 4, h, -(-d // ROWS_PER_ITEM))
+                size = tuple(round_up(n, t) for n, t in zip(strips, local, strict=True))
+                self._launches["ProjectStep2Rows"] = (self._program.kernel("ProjectStep2Rows"), size, local)
             self._built_for = book
         self._configured_for = self.params
 
     def _grid(self, name: str, *args) -> None:
-        """Launch a grid kernel over every cell (a SETS_WALLS kernel also over its wall work-groups); ``args`` in the
-        kernel's order (buffers, w, h, d, scalars)."""
+        """Launch a grid kernel over every cell (a SETS_WALLS kernel also over its wall work-groups, ProjectStep2Rows
+        over its strips); ``args`` in the kernel's order (buffers, w, h, d, scalars)."""
         if self.params is not self._configured_for:
             self._configure()
-        kernel, size = self._launches[name]
-        kernel(size, self.local_size, *args)
+        kernel, size, local = self._launches[name]
+        kernel(size, local, *args)
 
     def _boundary(self, name: str, field, *args) -> None:
         """SetBoundary<name> on ``field`` (``args`` follow it: P's stride): one launch, one work-item per wall cell
@@ -302,8 +323,9 @@ class Simulation(BaseSimulation):
         self._place_p()
         book, dims = self.params.variant == "book", self.dims
         p, extra = (self.prev, ()) if book else (self.pressure, (self.divergence,))
+        kernel = self.sweep_kernel  # ProjectStep2, or its strips on GPUs: the same arguments
         for _ in range(self.params.gs_iterations if sweeps is None else sweeps):
-            self._grid("ProjectStep2", p.read, p.write, *extra, *dims)
+            self._grid(kernel, p.read, p.write, *extra, *dims)
             p.swap()
 
     def project_step3(self) -> None:
@@ -494,34 +516,37 @@ SWEEP_BATCH = 20
 
 
 def bench(runtime, sizes=None) -> list[dict]:
-    """Per grid n^3 and Jacobi sweeps per solve: ms per step (the whole Update: 2 diffusions, 2 projections,
-    2 advections, the queue finished after each step), cell updates/s (cells x steps/s), and one Jacobi sweep of the
-    pressure solve (ProjectStep2 with its walls, one launch) in us, timed over 20 sweeps back to back and one finish
-    as a solve runs them, as sweeps/s and cell updates/s, and as the least traffic a sweep needs
-    (stable_fluids_2d.JACOBI_BYTES_PER_CELL, what the fixed variant's sweep moves; the book's float4 prev: 32) per
-    second."""
+    """Per grid n^3, sweep kernel (ProjectStep2 in the book's work-groups, ProjectStep2Rows in its strips) and Jacobi
+    sweeps per solve: ms per step (the whole Update: 2 diffusions, 2 projections, 2 advections, the queue finished
+    after each step), cell updates/s (cells x steps/s), and one Jacobi sweep of the pressure solve (one launch, walls
+    included) in us, timed over 20 sweeps back to back and one finish as a solve runs them, as sweeps/s and cell
+    updates/s, and as the least traffic a sweep needs (stable_fluids_2d.JACOBI_BYTES_PER_CELL, what the fixed
+    variant's sweep moves; the book's float4 prev: 32) per second."""
     sizes = sizes or ([64, 128, 256] if runtime.is_gpu else [64, 128])
     rows = []
     for n in sizes:
-        for sweeps in (2, 20):
-            sim = Simulation(runtime, Params(width=n, height=n, depth=n, gs_iterations=sweeps), seed=0)
-            seconds = seconds_per_step(sim, min_seconds=1.0, max_steps=50)
-            sweep = seconds_per_call(
-                lambda sim=sim: sim.project_step2(1), runtime.queue, max_calls=10 * SWEEP_BATCH, batch=SWEEP_BATCH
-            )
-            cells = n**3
-            rows.append(
-                {
-                    "grid": f"{n}^3",
-                    "gs_iterations": sweeps,
-                    "ms/step": seconds * 1e3,
-                    "cell updates/s": cells / seconds,
-                    "us/Jacobi sweep": sweep * 1e6,
-                    "Jacobi sweeps/s": 1.0 / sweep,
-                    "Jacobi cell updates/s": cells / sweep,
-                    "Jacobi bytes/s": JACOBI_BYTES_PER_CELL * cells / sweep,
-                }
-            )
+        for kernel in ("ProjectStep2", "ProjectStep2Rows"):
+            for sweeps in (2, 20):
+                sim = Simulation(runtime, Params(width=n, height=n, depth=n, gs_iterations=sweeps), seed=0)
+                sim.sweep_kernel = kernel
+                seconds = seconds_per_step(sim, min_seconds=1.0, max_steps=50)
+                sweep = seconds_per_call(
+                    lambda sim=sim: sim.project_step2(1), runtime.queue, max_calls=10 * SWEEP_BATCH, batch=SWEEP_BATCH
+                )
+                cells = n**3
+                rows.append(
+                    {
+                        "grid": f"{n}^3",
+                        "sweep kernel": kernel,
+                        "gs_iterations": sweeps,
+                        "ms/step": seconds * 1e3,
+                        "cell updates/s": cells / seconds,
+                        "us/Jacobi sweep": sweep * 1e6,
+                        "Jacobi sweeps/s": 1.0 / sweep,
+                        "Jacobi cell updates/s": cells / sweep,
+                        "Jacobi bytes/s": JACOBI_BYTES_PER_CELL * cells / sweep,
+                    }
+                )
     return rows
 
 
