@@ -27,8 +27,8 @@
 //                        so B(P) would change nothing; fixed: also divergence = div, pressure = 0
 //   ProjectStep2         book: prev_in -> prev_out, fixed: pressure_in, divergence -> pressure_out: one Jacobi sweep
 //                        of the Poisson equation for p (gs_iterations) +B(P)
-//   ProjectStep2Rows     the same sweep (fixed, w % 4 == 0) in strips of 4 x 1 x ROWS cells along z: what GPUs run
-//                        (Simulation.sweep_kernel)
+//   ProjectStep2Rows     the same sweep (fixed, w % 4 == 0) in strips of 4 x 1 x ROWS cells along z: what the host
+//                        runs where the width allows (Simulation.sweep_kernel)
 //   ProjectStep3         velocity -= 0.5*(p(+1) - p(-1))*(w | h | d) per axis (own cell, in place); fixed: prev.x = p
 //   SetBoundaryVelocity  after ProjectStep3 (in place: its walls would read cells other work-items write)
 //   SwapVelocity         prev.xyz = velocity (a one-way copy despite the name, as the book)
@@ -411,7 +411,7 @@ void ProjectStep2(const __global float* pressure_in, __global float* pressure_ou
 #undef PRESSURE_AT
 }
 
-// ProjectStep2 for GPUs (fixed, w % 4 == 0): one work-item sweeps a column of 4 x 1 x ROWS cells along z, walls
+// ProjectStep2 in strips (fixed, w % 4 == 0): one work-item sweeps a column of 4 x 1 x ROWS cells along z, walls
 // included, keeping the planes below and above in registers, with 16-byte loads and stores. Every cell, wall or not,
 // is wall_copy(its wall axes, p at its inner cell); the strip computes p at (clamp(x), clamp(y), clamp(z)) as
 // pressure_at does (the same sum in the same order): ProjectStep2's values bit for bit. Global size (w / 4, h,

@@ -150,10 +150,13 @@ class Params(BaseParams):
 
 class StripSweeps:
     """The pressure sweep's kernel choice, shared by the 2D and 3D simulations: ProjectStep2Rows (strips of 4 cells)
-    where ``_configure`` made its launch (variant fixed, a grid width divisible by 4) and the device is a GPU, else
-    the book's one-cell ProjectStep2; the same pressures bit for bit."""
+    where ``_configure`` made its launch (variant fixed, a grid width divisible by 4) and the device is a GPU (or
+    any device, with ``strips_on_cpu``), else the book's one-cell ProjectStep2; the same pressures bit for bit."""
 
     _sweep_kernel: str | None = None  # None: the device's choice
+    strips_on_cpu = False
+    """2D: PoCL vectorises the one-cell ProjectStep2 across work-items, and the strips are slower there (512^2:
+    292 against 163 us a sweep, 2026-11-25)."""
 
     @property
     def sweep_kernel(self) -> str:
@@ -162,7 +165,7 @@ class StripSweeps:
         self._configure()
         rows = "ProjectStep2Rows" in self._launches
         if self._sweep_kernel is None or (self._sweep_kernel == "ProjectStep2Rows" and not rows):
-            return "ProjectStep2Rows" if rows and self.runtime.is_gpu else "ProjectStep2"
+            return "ProjectStep2Rows" if rows and (self.runtime.is_gpu or self.strips_on_cpu) else "ProjectStep2"
         return self._sweep_kernel  # (a ProjectStep2Rows set before a live switch to variant=book falls back above)
 
     @sweep_kernel.setter
