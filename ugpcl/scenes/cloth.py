@@ -364,8 +364,8 @@ def bench(runtime, sizes=None) -> list[dict]:
     """For W = H = each size (main scene: 4 substeps, sphere on): ms per frame (the queue finished after each frame)
     with particle-updates/s (particles x substeps per second) and frames/s; one substep (a CSSimulation launch and
     the ping-pong swap) in us, timed over 20 substeps back to back (5 frames' worth, each frame's last writing the
-    normal) and one finish, and as the least traffic a substep needs (SUBSTEP_BYTES_PER_PARTICLE) per second. ``kernel`` names the substep's kernel (CSSimulation_cpu
-    on CPU devices)."""
+    normal) and one finish, and as the least traffic a substep needs (SUBSTEP_BYTES_PER_PARTICLE) per second.
+    ``kernel`` names the substep's kernel (CSSimulation_cpu on CPU devices)."""
     sizes = sizes or ([64, 128, 256, 512, 1024] if runtime.is_gpu else [64, 128, 256])
     rows = []
     for n in sizes:
