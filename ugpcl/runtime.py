@@ -12,6 +12,7 @@ lists a CPU it cannot compile for (DESIGN.md, "PoCL").
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 from importlib import resources
 from pathlib import Path
@@ -55,6 +56,18 @@ class BuildError(RuntimeError):
 def round_up(n: int, multiple: int) -> int:
     """Smallest multiple of ``multiple`` that is >= n (OpenCL 1.2 global sizes must be multiples of the local size)."""
     return (n + multiple - 1) // multiple * multiple
+
+
+def fitted_shape(wanted: tuple[int, ...], device: cl.Device) -> tuple[int, ...]:
+    """``wanted`` (a 2-D or 3-D work-group shape) halved until ``device`` runs it: an axis over the device's per-axis
+    limit first, else the largest axis (the first of equals)."""
+    limits = device.max_work_item_sizes[: len(wanted)]
+    size = list(wanted)
+    while math.prod(size) > device.max_work_group_size or any(s > m for s, m in zip(size, limits, strict=True)):
+        over = [a for a in range(len(size)) if size[a] > limits[a]]
+        axis = over[0] if over else size.index(max(size))
+        size[axis] = max(1, size[axis] // 2)
+    return tuple(size)
 
 
 def _is_simulator(platform: cl.Platform) -> bool:

@@ -40,7 +40,7 @@ import pyopencl.cltypes as cltypes
 from ..benchmark import seconds_per_call, seconds_per_step
 from ..buffers import PingPong, put
 from ..resources import Allocation
-from ..runtime import round_up
+from ..runtime import fitted_shape, round_up
 from ..scene import Params as BaseParams
 from ..scene import Scene, check_dt, param
 from ..scene import Simulation as BaseSimulation
@@ -533,17 +533,6 @@ class Simulation(StripSweeps, BaseSimulation):
         }
 
     # }}}
-
-
-def fitted_shape(wanted: tuple[int, int], device) -> tuple[int, int]:
-    """``wanted`` (a 2-D work-group shape) with its larger side halved until ``device`` can run it."""
-    size = list(wanted)
-    while size[0] * size[1] > device.max_work_group_size or any(
-        s > m for s, m in zip(size, device.max_work_item_sizes[:2], strict=True)
-    ):
-        largest = size.index(max(size))
-        size[largest] = max(1, size[largest] // 2)
-    return size[0], size[1]
 
 
 def stroke_brush(stroke: str, frame: int, frames: int) -> tuple[float, float, float, float] | None:

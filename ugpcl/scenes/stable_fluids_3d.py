@@ -39,7 +39,7 @@ import pyopencl.cltypes as cltypes
 from ..benchmark import seconds_per_call, seconds_per_step
 from ..buffers import PingPong, put
 from ..resources import Allocation
-from ..runtime import round_up
+from ..runtime import fitted_shape, round_up
 from ..scene import Params as BaseParams
 from ..scene import Scene, check_dt, param
 from ..scene import Simulation as BaseSimulation
@@ -158,7 +158,7 @@ class Simulation(StripSweeps, BaseSimulation):
         p, rt = self.params, self.runtime
         self.shape = (p.depth, p.height, p.width)  # numpy (D, H, W): row z*h + y, column x
         self.dims = (np.int32(p.width), np.int32(p.height), np.int32(p.depth))
-        self.local_size = self._fit_local_size(p.local_size)
+        self.local_size = fitted_shape(p.local_size, rt.device)
         self.global_size = tuple(
             round_up(n, t) for n, t in zip((p.width, p.height, p.depth), self.local_size, strict=True)
         )
@@ -182,20 +182,6 @@ class Simulation(StripSweeps, BaseSimulation):
         self.solver = rt.zeros((*self.shape, 4), np.float32)
         self.external_source = False
         self._built_for = self._configured_for = None  # the program follows local_size and variant (_configure)
-
-    def _fit_local_size(self, wanted: tuple[int, int, int]) -> tuple[int, int, int]:
-        """Halve an axis over the device's per-axis limit, else the largest axis, until the device accepts the shape
-        (docs/chapters/04-stable-fluids-3d.md)."""
-        device = self.runtime.device
-        limits = device.max_work_item_sizes[:3]
-        size = list(wanted)
-        while size[0] * size[1] * size[2] > device.max_work_group_size or any(
-            s > m for s, m in zip(size, limits, strict=True)
-        ):
-            over = [a for a in range(3) if size[a] > limits[a]]
-            axis = over[0] if over else size.index(max(size))
-            size[axis] = max(1, size[axis] // 2)
-        return tuple(size)
 
     @property
     def program(self):
@@ -223,7 +209,7 @@ class Simulation(StripSweeps, BaseSimulation):
             }
             w, h, d = (int(v) for v in self.dims)
             if not book and w % 4 == 0:  # strips of 4 x 1 x ROWS_PER_ITEM cells, walls included
-                local = self._fit_local_size(ROWS_LOCAL)
+                local = fitted_shape(ROWS_LOCAL, self.runtime.device)
                 strips = (w // 4, h, -(-d // ROWS_PER_ITEM))
                 size = tuple(round_up(n, t) for n, t in zip(strips, local, strict=True))
                 self._launches["ProjectStep2Rows"] = (self._program.kernel("ProjectStep2Rows"), size, local)
