@@ -20,7 +20,7 @@ def render_view(gl, scene_name: str, sim, size=(160, 120), **view_state):
     from ugpcl.viewer.offscreen import frame
     from ugpcl.viewer.views import create_view
 
-    from ugpcl.scenes import get
+    from ugpcl.registry import get
 
     view = create_view(get(scene_name), gl, sim)
     for key, value in view_state.items():
@@ -135,10 +135,6 @@ def run_pass(gl, fragment: str, textures: dict, uniforms: dict | None = None, si
 
 
 def build_kernel_source(runtime, source: str):
-    """A pyopencl Program built from ``source`` with ``clkernels/include`` on the include path (test kernels that
-    exercise a header; the ``image.h`` twin checks)."""
-    import pyopencl as cl
-
-    from ugpcl.runtime import INCLUDE_DIR
-
-    return cl.Program(runtime.context, source).build(options=[f"-I{INCLUDE_DIR}"])
+    """A ``Program`` built from ``source`` as a ``clkernels/`` file is (include path, checked launches): test kernels
+    that exercise a header (the ``image.h`` twin checks)."""
+    return runtime.program_from_source(source, "test_kernels.cl")

@@ -8,7 +8,8 @@ import pytest
 from helpers import foreground, most_common_colour
 from PIL import Image
 
-from ugpcl.docs import ANIMATION_SIZE, ANIMATIONS, ROOT, page_scenes
+from ugpcl.docs import ANIMATION_SIZE, ROOT, animated, page_scenes
+from ugpcl.scene import Animation
 
 PAGES = page_scenes()
 IMG = ROOT / "docs" / "img"
@@ -29,7 +30,7 @@ def frames_of(path) -> tuple[list[np.ndarray], int | None]:
 
 def test_every_page_has_a_loop_of_its_picture_scene():
     assert len(PAGES) == len(list((ROOT / "docs" / "chapters").glob("*.md"))), "a chapter page shows no scene picture"
-    assert set(ANIMATIONS) == set(PAGES.values()), "ANIMATIONS and the pages' picture scenes differ"
+    assert set(animated()) == set(PAGES.values()), "the scenes with an animation and the pages' picture scenes differ"
 
 
 @pytest.mark.parametrize("page", list(PAGES), ids=lambda p: p.stem)
@@ -40,7 +41,7 @@ def test_page_embeds_its_loop_under_its_picture(page):
     assert picture < loop, f"{page.name}: the loop of {name} is not embedded after its picture"
 
 
-@pytest.mark.parametrize("name", sorted(ANIMATIONS))
+@pytest.mark.parametrize("name", sorted(animated()))
 def test_loop_is_animated_and_shows_the_scene_moving(name):
     """Animated (the recorded frames, less those libwebp folds into an equal one before), looping forever, at
     ANIMATION_SIZE; no frame is empty (more than 0.3 % of it differs from its most common colour, the preview test's
@@ -49,7 +50,7 @@ def test_loop_is_animated_and_shows_the_scene_moving(name):
     path = IMG / f"{name}.webp"
     assert path.exists(), f"{path.name} missing: run make anim"
     frames, loop = frames_of(path)
-    recorded = ANIMATIONS[name].frames
+    recorded = animated()[name].frames
     # folds only where nothing changed: the ear list and the Poisson sampler once they are complete
     assert 0.75 * recorded <= len(frames) <= recorded, f"{path.name}: {len(frames)} frames of {recorded} recorded"
     assert loop == 0, f"{path.name}: loop count {loop}, not 0 (forever)"
@@ -67,7 +68,7 @@ def test_loop_is_animated_and_shows_the_scene_moving(name):
 
 
 def test_loops_stay_small():
-    sizes = {p.name: p.stat().st_size for p in (IMG / f"{name}.webp" for name in ANIMATIONS) if p.exists()}
+    sizes = {p.name: p.stat().st_size for p in (IMG / f"{name}.webp" for name in animated()) if p.exists()}
     large = {k: f"{v // 1024} KB" for k, v in sizes.items() if v > FILE_LIMIT}
     assert not large, f"loops over {FILE_LIMIT // 1024} KB: {large}"
     assert sum(sizes.values()) <= TOTAL_LIMIT, f"all loops together: {sum(sizes.values()) / 2**20:.1f} MB"
@@ -80,7 +81,7 @@ def test_record_animation_replays_the_ear_list(runtime, gl, tmp_path):
     from ugpcl.docs import record_animation
 
     path = tmp_path / "ear_clipping.webp"
-    assert record_animation(runtime, "ear_clipping", path) == ANIMATIONS["ear_clipping"].frames
+    assert record_animation(runtime, "ear_clipping", path) == animated()["ear_clipping"].frames
     frames, loop = frames_of(path)
     assert loop == 0 and [p.name for p in tmp_path.iterdir()] == ["ear_clipping.webp"]
     lit = [foreground(f, (0.0, 0.0, 0.0), 40).mean() for f in frames]  # the view's black background
@@ -95,10 +96,9 @@ def test_a_swing_turns_the_camera_and_comes_back(runtime, gl, tmp_path, monkeypa
     frames differ and the loop's end meets its start (the frame after the last would be the first again)."""
     import ugpcl.docs as docs
 
-    anim = docs.ANIMATIONS["multiplane_projection"]
-    monkeypatch.setitem(docs.ANIMATIONS, "multiplane_projection", docs.Animation(anim.shows, frames=8, swing=30.0))
+    anim = Animation(animated()["multiplane_projection"].shows, frames=8, swing=30.0)
     path = tmp_path / "m.webp"
-    assert docs.record_animation(runtime, "multiplane_projection", path) == 8
+    assert docs.record_animation(runtime, "multiplane_projection", path, anim) == 8
     frames, _ = frames_of(path)
     assert len(frames) == 8
     step = [np.abs(a.astype(int) - b).mean() for a, b in zip(frames[:-1], frames[1:], strict=True)]

@@ -51,5 +51,5 @@ def test_create_validates_and_update_resets_only_for_non_live_params():
 
 
 def test_scenes_lists_every_scene_with_its_summary():
-    listed = ugpcl.scenes()
+    listed = ugpcl.list_scenes()
     assert "boids" in listed and "flocking" in listed["boids"] and len(listed) >= 20

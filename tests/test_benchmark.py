@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ugpcl.benchmark import DeviceLimits, copy_rate, fp32_rate, with_shares
+from ugpcl.bench.device import DeviceLimits, copy_rate, fp32_rate, with_shares
 
 
 def fma_probe_reference(n: int, rounds: int, a: float, b: float) -> np.ndarray:
@@ -101,9 +101,9 @@ def test_every_bench_row_has_a_share_column_or_a_dash():
     """Each chapter's bench states a count: its source names a `bytes/s` or `flop/s` column."""
     import inspect
 
-    from ugpcl.cli import _benches
+    from ugpcl.bench import benches
 
-    for name, bench in _benches().items():
+    for name, bench in benches().items():
         if name in ("copy", "peak", "launch"):  # the device's limits themselves
             continue
         source = inspect.getsource(inspect.getmodule(bench))
@@ -111,7 +111,7 @@ def test_every_bench_row_has_a_share_column_or_a_dash():
 
 
 def test_grid_pairs_are_the_pairs_of_neighbouring_cells():
-    from ugpcl.benchmark import grid_pairs_2d
+    from ugpcl.bench.timing import grid_pairs_2d
 
     rng = np.random.default_rng(1)
     points = rng.uniform(-0.5, 4.5, (300, 2))  # some outside the 4 x 3 grid: clamped into its border cells

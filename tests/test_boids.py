@@ -7,7 +7,7 @@ import pytest
 from helpers import first_mismatch, foreground
 
 from ugpcl.buffers import device_sizeof
-from ugpcl.scenes import get
+from ugpcl.registry import get
 from ugpcl.scenes.boids import BOID_DTYPE, Params, Simulation
 
 # {{{ numpy float64 reference, written from the book's Boids.compute listing

@@ -13,7 +13,7 @@ from helpers import first_mismatch, foreground
 
 from ugpcl.buffers import device_sizeof
 from ugpcl.cli import main as cli_main
-from ugpcl.scenes import get
+from ugpcl.registry import get
 from ugpcl.scenes.cellular_growth import (
     EDGE_DTYPE,
     PARTICLE_DTYPE,

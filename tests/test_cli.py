@@ -171,7 +171,7 @@ def test_bench_prints_a_table(capsys):
 def test_bench_shares_of_the_device_limits_and_json_records_match_the_table(capsys, tmp_path):
     """`% copy bw` follows every `... bytes/s` column, computed from the measured copy bandwidth; --json holds one
     record per float of the tables, with the row's sizes and variants as labels."""
-    from ugpcl.benchmark import device_limits
+    from ugpcl.bench.device import device_limits
     from ugpcl.cli import format_table
     from ugpcl.runtime import Runtime
 
@@ -422,8 +422,8 @@ def test_requests_beyond_the_device_are_one_line_naming_the_largest_value(capsys
     allocated, naming the parameter and the largest value that fits, and that value fits while one more does not.
     A device that holds the request (a GPU with 80 GB) runs it."""
     from ugpcl import resources
+    from ugpcl.registry import get
     from ugpcl.runtime import Runtime
-    from ugpcl.scenes import get
 
     device, simulation = Runtime().device, get(scene).simulation
     name, value = setting.split("=")
@@ -446,7 +446,7 @@ def test_resource_check_names_the_limit_it_hits():
     from types import SimpleNamespace
 
     from ugpcl import resources
-    from ugpcl.scenes import get
+    from ugpcl.registry import get
 
     device = SimpleNamespace(
         name="small device", max_mem_alloc_size=2**20, global_mem_size=3 * 2**20, image2d_max_width=256,

@@ -11,7 +11,7 @@ import pytest
 from helpers import first_mismatch, foreground
 
 from ugpcl.cli import main
-from ugpcl.scenes import get
+from ugpcl.registry import get
 from ugpcl.scenes.cloth import MAIN_SCENE, SIMULATION_KERNELS, Params, Simulation, grid_triangles, spring_pairs
 
 # {{{ numpy float64 reference, written from the book's Kernels.compute listing

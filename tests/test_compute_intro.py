@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from helpers import foreground
 
-from ugpcl.scenes import get
+from ugpcl.registry import get
 from ugpcl.scenes.compute_intro import Params, Simulation
 
 

@@ -10,35 +10,11 @@ from PIL import Image
 from ugpcl.docs import PREVIEW_SIZE, ROOT, tables
 from ugpcl.geometry.mesh import Mesh
 from ugpcl.geometry.mesh_io import read_ply, write_mesh
-from ugpcl.scenes import scenes
+from ugpcl.registry import scenes
 
 
 def test_generated_tables_are_up_to_date(capsys):
     assert tables(check=True) == 0, capsys.readouterr().out
-
-
-MIN_SUBJECT = 0.05
-"""Share of a preview's pixels that differ from its background when the subject is visible: 5 % of a 1280x720 frame
-is a 215-pixel square (the SPH code defaults' splash once filled 1 %, a blob lost in a black box)."""
-SPARSE_SUBJECTS = {
-    "boids": (0.02, "small boids spread through their cage"),
-    "procedural_modeling": (0.02, "one tree of thin branches"),
-    "procedural_modeling_lsystem": (0.003, "one-pixel lines on white"),
-    "space_colonization_cpu": (0.02, "thin branches and their node points"),
-    "projection_spray_figure": (0.02, "a slim figure beside the spray's frustum lines"),
-}
-"""Scenes whose subject is drawn in thin lines or small marks: a lower share still means it is visible."""
-FILLS_THE_FRAME = {
-    "kleinian": "the limit set tiles the whole plane",
-    "kleinian_inverse": "the limit set tiles the whole plane",
-    "marching_cubes": "the floor runs to the horizon",
-    "marching_cubes_kaiware": "the floor runs to the horizon",
-    "space_colonization_skinned": "the floor runs to the horizon",
-    "star_glow": "a field of stars all around the camera",
-    "tessellation": "the tessellated height field, seen close, runs out of the frame's sides",
-    "sph_2d_code_defaults": "the picture zooms onto the splash: the box's floor line crosses the frame",
-}
-"""Scenes whose picture fills the frame by design: their foreground may touch the frame's edge."""
 
 
 def subject(pixels: np.ndarray) -> tuple[float, tuple[int, int, int, int]]:
@@ -52,17 +28,18 @@ def subject(pixels: np.ndarray) -> tuple[float, tuple[int, int, int, int]]:
 @pytest.mark.parametrize("name", list(scenes()))
 def test_preview_picture_shows_the_scene(name):
     """docs/img/<scene>.png (make png) is there at the preview size and shows its subject as a person would want to
-    see it: large enough (MIN_SUBJECT, or the scene's SPARSE_SUBJECTS share) and whole, its bounding box clear of
-    the frame's edge (except FILLS_THE_FRAME)."""
+    see it: large enough and whole, its bounding box clear of the frame's edge, as the scene's ``preview_check``
+    says."""
     path = ROOT / "docs" / "img" / f"{name}.png"
     assert path.exists(), f"{path.name} missing: run make png"
     with Image.open(path) as image:
         assert image.size == PREVIEW_SIZE, f"{path.name} is {image.size}, run make png"
         pixels = np.asarray(image.convert("RGB"))
     share, (x0, y0, x1, y1) = subject(pixels)
-    minimum = SPARSE_SUBJECTS.get(name, (MIN_SUBJECT, ""))[0]
+    check = scenes()[name].preview_check
+    minimum = check.min_subject
     assert share > minimum, f"{path.name}: the subject covers {share:.1%} of the frame (needs > {minimum:.1%})"
-    if name not in FILLS_THE_FRAME:
+    if not check.fills_frame:
         w, h = PREVIEW_SIZE
         assert x0 > 0 and y0 > 0 and x1 < w - 1 and y1 < h - 1, (
             f"{path.name}: the subject's box ({x0}, {y0})-({x1}, {y1}) touches the frame's edge (cut off)"

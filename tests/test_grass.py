@@ -15,7 +15,7 @@ from PIL import Image
 
 from ugpcl.buffers import device_sizeof
 from ugpcl.cli import main
-from ugpcl.scenes import get
+from ugpcl.registry import get
 from ugpcl.scenes.grass import GRASS_PARAMS_DTYPE, MAX_BLADES, Params, PyramidParams, PyramidSimulation, Simulation
 
 # {{{ numpy float64 reference, written from the book's listings (Grass.shader, SimpleGeometryShader)

@@ -7,23 +7,10 @@ from __future__ import annotations
 
 import pytest
 
-from ugpcl.scenes import scenes
+from ugpcl.registry import scenes
 
-SIZED = (
-    "boids",
-    "marching_cubes_kaiware",
-    "projection_spray",
-    "projection_spray_figure",
-    "projection_spray_stencil",
-    "space_colonization",
-    "space_colonization_skinned",
-    "space_colonization_tubes",
-    "sph_2d",
-    "sph_2d_code_defaults",
-    "stable_fluids_3d",
-    "star_glow",
-)
-"""Scenes whose book sizes step too slowly on PoCL for a window (seconds, for the slowest)."""
+SIZED = [name for name, scene in scenes().items() if scene.interactive]
+"""Scenes that declare CPU sizes (``Scene.interactive``): their book sizes step too slowly on PoCL for a window."""
 
 
 @pytest.mark.parametrize("name", sorted(scenes()))

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from helpers import run_cli
 
-from ugpcl.scenes import get
+from ugpcl.registry import get
 from ugpcl.scenes.kleinian import CLIP, CLIP_LENGTH, CLIP_TIMES, Params, clip_at, flat_curve, uv_at
 
 # {{{ numpy reference: KleinianGroup.shader's josKleinian, float32, the shader's operation order (book 2.6)

@@ -16,7 +16,7 @@ from skimage.measure import marching_cubes as skimage_marching_cubes
 
 from ugpcl.buffers import Pool, device_sizeof
 from ugpcl.geometry import marching_cubes_tables as tables
-from ugpcl.scenes import get
+from ugpcl.registry import get
 from ugpcl.scenes.marching_cubes import TRIANGLE_DTYPE, Params, Simulation
 
 # {{{ numpy float64 reference, written from the book's Sample/geom_light (GPUMarchingCubesRenderStandardMesh.shader)

@@ -328,7 +328,7 @@ def test_view_draws_a_cube_per_revealed_state(runtime, gl):
 
 @pytest.mark.gl
 def test_rejection_view_and_keys(runtime, gl):
-    from ugpcl.scenes import get
+    from ugpcl.registry import get
 
     sim = get("mcmc_rejection").create(runtime, batches=20, limit=500, batches_per_second=1e6)
     sim.step()  # every batch revealed

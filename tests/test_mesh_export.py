@@ -19,7 +19,7 @@ from ugpcl.geometry.mesh import (
     weld,
 )
 from ugpcl.geometry.mesh_io import MESH_SUFFIXES, write_mesh
-from ugpcl.scenes import get
+from ugpcl.registry import get
 from ugpcl.scenes.marching_cubes import field_constants
 
 # scene -> (steps, --set pairs): small sizes for PoCL on shared cores, each still making geometry

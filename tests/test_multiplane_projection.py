@@ -13,7 +13,7 @@ from helpers import foreground, run_cli
 from scipy.ndimage import maximum_filter, minimum_filter
 
 from ugpcl.geometry.mesh import is_watertight, normals_agree_with_winding, signed_volume, weld
-from ugpcl.scenes import get
+from ugpcl.registry import get
 from ugpcl.scenes.multiplane_projection import (
     MARCH_STEPS,
     MAX_DISTANCE,

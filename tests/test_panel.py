@@ -12,7 +12,7 @@ import pytest
 from imgui_bundle import imgui
 from ugpcl.viewer.panel import INT_LIMIT, LOG_SPAN, OPEN_END, Panel, draw_widget, widgets
 
-from ugpcl.scenes import get, scenes
+from ugpcl.registry import get, scenes
 
 
 def expected_kind(kind, meta, name) -> str:

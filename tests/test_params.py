@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from ugpcl.docs import params_table
+from ugpcl.registry import scenes
 from ugpcl.scene import FLOAT32_MAX, LIMIT, Params, _describe_range, _show, param
-from ugpcl.scenes import scenes
 from ugpcl.scenes.sph_2d import Params as SphParams
 from ugpcl.scenes.sph_2d import Simulation as SphSimulation
 

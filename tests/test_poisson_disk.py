@@ -14,8 +14,8 @@ from scipy.spatial import cKDTree
 
 from ugpcl.geometry import poisson_disk as pd
 from ugpcl.random import key_of_seed, philox4x32, uniform01
+from ugpcl.registry import get
 from ugpcl.scene import ParamError
-from ugpcl.scenes import get
 from ugpcl.scenes.poisson_disk import R2_MARGIN, Params, Simulation
 
 UNIT = {"lo": (0.0, 0.0, 0.0), "size": (1.0, 1.0, 1.0)}

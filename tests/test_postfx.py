@@ -7,7 +7,6 @@ from functools import cache
 
 import moderngl
 import numpy as np
-import pyopencl as cl
 import pytest
 from helpers import build_kernel_source, compare_images, linear_filter_error, run_pass
 from ugpcl.viewer.postfx import (
@@ -52,7 +51,7 @@ __kernel void TexelUV(__global float4* out, int w, int h) {
 
 @cache
 def image_kernel(runtime, name: str) -> Kernel:
-    return Kernel(runtime, cl.Kernel(build_kernel_source(runtime, IMAGE_TEST_KERNELS), name), name)
+    return build_kernel_source(runtime, IMAGE_TEST_KERNELS).kernel(name)
 
 
 def cl_sample(runtime, source: np.ndarray, coords: np.ndarray) -> np.ndarray:

@@ -19,7 +19,7 @@ from ugpcl.geometry.mesh import (
     triangle_areas,
     weld,
 )
-from ugpcl.scenes import get, scenes
+from ugpcl.registry import get, scenes
 from ugpcl.scenes.procedural_modeling import CURVES, PlaneParams, PlaneSimulation, TreeParams, TreeSimulation
 
 SCENE_NAMES = [name for name in scenes() if name.startswith("procedural_modeling")]

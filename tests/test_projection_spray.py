@@ -13,7 +13,7 @@ from ugpcl.geometry.ear_clipping import point_in_polygon
 from ugpcl.geometry.mesh import Mesh, vertex_normals
 from ugpcl.geometry.skinned_figure import Figure
 from ugpcl.geometry.uv_atlas import bake, per_triangle_layout, unit_cube, uv_sphere
-from ugpcl.scenes import get
+from ugpcl.registry import get
 from ugpcl.scenes.projection_spray import (
     PRESETS,
     STAR_POINTS,

@@ -25,8 +25,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from ugpcl.cli import main
+from ugpcl.registry import scenes
 from ugpcl.scene import FLOAT32_MAX
-from ugpcl.scenes import scenes
 
 EXAMPLES = 6
 """Parameter sets per scene in `make test` (each one a `ugpcl run` of STEPS steps)."""

@@ -11,7 +11,7 @@ from PIL import Image
 from ugpcl.viewer.record import Recorder
 from ugpcl.viewer.views import view_class
 
-from ugpcl.scenes import get
+from ugpcl.registry import get
 
 
 def moving_square(i: int, size=(65, 49)) -> np.ndarray:

@@ -13,7 +13,7 @@ from helpers import foreground, render_view, run_cli
 
 from ugpcl.buffers import device_sizeof
 from ugpcl.geometry import space_colonization_ref as ref
-from ugpcl.scenes import get
+from ugpcl.registry import get
 from ugpcl.scenes.space_colonization import (
     ATTRACTION_DTYPE,
     CANDIDATE_DTYPE,

@@ -9,7 +9,7 @@ import pytest
 from helpers import render_view, run_cli
 
 from ugpcl.geometry import space_colonization_ref as ref
-from ugpcl.scenes import get
+from ugpcl.registry import get
 from ugpcl.scenes.space_colonization_cpu import Params, Simulation
 
 # {{{ the blog's tree

@@ -10,7 +10,7 @@ from helpers import run_cli
 
 from ugpcl.buffers import device_sizeof
 from ugpcl.geometry import skinned_figure
-from ugpcl.scenes import get
+from ugpcl.registry import get
 from ugpcl.scenes.space_colonization_skinned import (
     SKINNED_ATTRACTION_DTYPE,
     SKINNED_CANDIDATE_DTYPE,

@@ -12,7 +12,7 @@ from helpers import first_mismatch, foreground
 
 from ugpcl.buffers import device_sizeof
 from ugpcl.cli import main
-from ugpcl.scenes import get
+from ugpcl.registry import get
 from ugpcl.scenes.sph_2d import PARTICLE_DTYPE, Params, Simulation
 
 SUB_DT = 1.0 / 240.0  # the scene's sub-step (max_allowable_timestep)

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 from helpers import first_mismatch
 
+from ugpcl.registry import get
 from ugpcl.runtime import KERNEL_DIR, Kernel
-from ugpcl.scenes import get
 from ugpcl.scenes.stable_fluids_2d import KERNELS, Params, Simulation
 
 W, H = 37, 23

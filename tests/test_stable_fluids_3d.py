@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from helpers import first_mismatch, foreground
 
+from ugpcl.registry import get
 from ugpcl.runtime import KERNEL_DIR
-from ugpcl.scenes import get
 from ugpcl.scenes.stable_fluids_3d import KERNELS, Params, Simulation
 
 SIZES = [(19, 17, 13), (16, 16, 16), (3, 4, 5)]

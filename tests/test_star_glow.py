@@ -10,7 +10,7 @@ import pytest
 from helpers import compare_images, linear_filter_error, render_view, run_cli
 from scipy import ndimage
 
-from ugpcl.scenes import get
+from ugpcl.registry import get
 from ugpcl.scenes.star_glow import COMPOSITE_TYPES, Params, Simulation, streak_directions, streak_line_kernel
 
 # {{{ numpy float64 reference, written from the book's StarGlow.shader passes and StarGlow.cs

@@ -187,7 +187,7 @@ def test_bad_sweep_input_is_one_line_and_exit_2(capsys, tmp_path, argv, message)
 
 
 def test_tuple_values_and_run_names():
-    from ugpcl.scenes import get
+    from ugpcl.registry import get
     from ugpcl.sweep import parse_grid, parse_seeds, run_name
 
     grid = parse_grid(get("boids"), ["wall_size=8,8,8/16,16,16", "variant=naive,grid"])

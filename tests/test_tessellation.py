@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from helpers import first_mismatch, foreground, linear_filter_error
 
-from ugpcl.scenes import get
+from ugpcl.registry import get
 from ugpcl.scenes.tessellation import (
     Params,
     Simulation,

@@ -18,7 +18,7 @@ from helpers import foreground
 from PIL import Image
 from ugpcl.viewer.views import view_class
 
-from ugpcl.scenes import scenes
+from ugpcl.registry import scenes
 
 
 @pytest.fixture

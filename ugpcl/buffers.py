@@ -11,7 +11,7 @@ import numpy as np
 import pyopencl as cl
 import pyopencl.array as cla
 
-from .runtime import INCLUDE_DIR, Kernel, Runtime
+from .runtime import Runtime
 
 COUNT, REFUSED = 0, 1  # slots of a pool's counter buffer (pool.h: POOL_COUNT, POOL_REFUSED)
 
@@ -91,9 +91,8 @@ def device_sizeof(runtime: Runtime, type_name: str, header: str) -> int:
     source = (
         f'#include "{header}"\n__kernel void ugpcl_sizeof(__global int* out) {{ out[0] = (int)sizeof({type_name}); }}'
     )
-    program = cl.Program(runtime.context, source).build(options=[f"-I{INCLUDE_DIR}"])
     out = cla.zeros(runtime.queue, 1, np.int32)
-    Kernel(runtime, cl.Kernel(program, "ugpcl_sizeof"), "ugpcl_sizeof")((1,), None, out.data)
+    runtime.program_from_source(source, "sizeof.cl").kernel("ugpcl_sizeof")((1,), None, out)
     return int(out.get()[0])
 
 

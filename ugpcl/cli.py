@@ -29,9 +29,9 @@ import pyopencl as cl
 
 from . import __version__, resources
 from .geometry.mesh_io import MESH_SUFFIXES
+from .registry import get, modules, scenes
 from .runtime import BuildError, DeviceError, Runtime, all_devices
 from .scene import ParamError, Scene, Simulation, check_dt
-from .scenes import get, modules, scenes
 
 USAGE_ERROR, RUNTIME_ERROR, INTERRUPTED, TERMINATED = 2, 1, 130, 143
 MAX_SEED = 2**63 - 1
@@ -594,14 +594,6 @@ def parse_size(text: str, option: str = "--png-size") -> tuple[int, int]:
     return w, h
 
 
-def _benches() -> dict:
-    """What ``ugpcl bench`` can time: the device's limits and launch cost, then every chapter module's ``bench``."""
-    from .benchmark import bench_copy, bench_launch, bench_peak
-
-    device = {"copy": bench_copy, "peak": bench_peak, "launch": bench_launch}
-    return {**device, **{name: m.bench for name, m in modules().items() if hasattr(m, "bench")}}
-
-
 def bench_records(device: str, chapter: str, date: str, rows: list[dict]) -> list[dict]:
     """One record per measured number of a bench table: the row's text and integer columns as labels (variant,
     size), the float column as the figure (its name carries the unit: ``ms/step``, ``cell updates/s``) and the
@@ -617,9 +609,10 @@ def bench_records(device: str, chapter: str, date: str, rows: list[dict]) -> lis
 
 
 def cmd_bench(args) -> int:
-    from .benchmark import device_limits, with_shares
+    from .bench import benches as all_benches
+    from .bench.device import device_limits, with_shares
 
-    benches = _benches()
+    benches = all_benches()
     names = list(benches) if args.all or not args.scene else args.scene
     for name in names:
         if name not in benches:

@@ -16,11 +16,11 @@ from __future__ import annotations
 import math
 import re
 import sys
-from dataclasses import dataclass, field
 from pathlib import Path
 
 from .cli import format_table
-from .scenes import get, scenes
+from .registry import get, scenes
+from .scene import Animation
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs" / "chapters").glob("*.md"))]
@@ -120,112 +120,13 @@ def params_table(name: str) -> str:
 ANIMATION_SIZE = (480, 270)
 """Width and height of docs/img/<scene>.webp (16:9 as the picture, small enough for a page)."""
 ANIMATION_FPS = 15
-"""Playback rate of the loops: ANIMATION_FRAMES frames last 3 s."""
-ANIMATION_FRAMES = 45
-"""Frames of a loop unless its Animation says otherwise."""
+"""Playback rate of the loops: a loop of ``Animation``'s default 45 frames lasts 3 s."""
 PICTURE = re.compile(r"^!\[(\w+)\]\(\.\./img/(\w+)\.png\)$", re.M)
 
 
-@dataclass(frozen=True)
-class Animation:
-    """How a page's loop is recorded: ``start`` steps (default: the preview's), then ``frames`` frames ``every``
-    steps apart, the parameters the preview sets and ``overrides``; ``swing`` turns a still scene's orbit camera
-    ``swing`` degrees either side of the picture's (one period per loop, so the loop has no seam). Scenes of many
-    small dots compress badly: a lower WebP ``quality`` keeps them within the size budget."""
-
-    shows: str
-    """What the loop shows (the page's caption)."""
-    every: int = 1
-    start: int | None = None
-    frames: int = ANIMATION_FRAMES
-    swing: float = 0.0
-    quality: int = 70
-    overrides: dict = field(default_factory=dict)
-
-
-ANIMATIONS = {
-    "procedural_modeling": Animation(
-        "the tree grows as the book's `_T` clip goes from 0 to 1 (in 2.2 s here, then it stays grown) while the "
-        "camera swings",
-        every=4,
-        start=24,
-        swing=25.0,
-        overrides={"grow_seconds": 2.2},
-    ),
-    "compute_intro_texture": Animation(
-        "the two textures that `KernelFunction_A` and `KernelFunction_B` fill do not change, so the camera swings "
-        "round them",
-        swing=35.0,
-    ),
-    "boids": Animation("the flock turning in its box", every=3),
-    "stable_fluids_2d": Animation("the scripted circle stroke stirs the ink round", every=2),
-    "stable_fluids_3d": Animation(
-        "the plume rising from the emitter while the camera swings (the volume reads better turning)",
-        every=5,
-        start=20,
-        swing=25.0,
-    ),
-    "sph_2d": Animation(
-        "the dam break: the column falls, splashes against the far wall and settles",
-        every=25,
-        start=0,
-        frames=36,
-        quality=50,  # 4096 dots: at 70 the loop is 430 KB
-    ),
-    "grass": Animation(
-        "the wind sways the blades, one sway period per loop (wind_time_scale = 2 pi / 1.5 s; the book's 0.05 "
-        "sways too slowly to see)",
-        every=2,
-        # 45 frames x 2 steps x dt 1/60 s = 1.5 s of shader time: one whole period of sin(t * wind_time_scale)
-        overrides={"wind_time_scale": round(2 * math.pi / ((ANIMATION_FRAMES * 2) / 60), 4)},
-    ),
-    "marching_cubes": Animation(
-        "the three metaballs pulse through two periods of the book's sin(8 t) (47 steps each), remeshed every step",
-        every=2,
-        frames=47,
-    ),
-    "mcmc": Animation(
-        "the Metropolis chains appear (800 a second instead of the book's 10) while the camera swings",
-        start=0,
-        swing=30.0,
-        quality=60,  # 12,000 small cubes: at 70 the loop is 410 KB
-        overrides={"chains_per_second": 800.0},
-    ),
-    "multiplane_projection": Animation(
-        "the room and its projected walls do not change with time, so the camera swings round the room", swing=30.0
-    ),
-    "projection_spray": Animation("the spray circles the turning cube and sphere and paints them", every=6, start=30),
-    "cellular_growth": Animation(
-        "cells divide and grow into the ring (the book's fixed camera: the fitted one would frame the first cells "
-        "only)",
-        every=12,
-        start=360,
-        overrides={"camera": "book"},
-    ),
-    "space_colonization": Animation("the branches grow from the seeds through the attraction cloud", every=3, start=12),
-    "kleinian": Animation(
-        "the book's uv animation (use_uv_animation: t along animKleinU/V over its 1 s clip, here in 2 s) grows the "
-        "spirals",
-        every=2,
-        start=1,
-        frames=30,
-        overrides={"use_uv_animation": True},
-    ),
-    "cloth": Animation("the sphere pushes into the hanging cloth, which drapes over it", every=12, start=560),
-    "star_glow": Animation("the demo spheres fall and their star streaks follow the highlights", every=2),
-    "ear_clipping": Animation(
-        "the ear list replays, 4 clipped ears a frame, until the glyph is triangulated",
-        start=0,
-        overrides={"clips_per_step": 4},
-    ),
-    "tessellation": Animation("the brush stroke pushes the displaced fluid surface round", every=3),
-    "poisson_disk": Animation(
-        "Bridson's sampler fills the box from one point, 36 active-point steps a frame",
-        start=0,
-        overrides={"steps_per_frame": 36},
-    ),
-}
-"""The loop of each chapter page's picture scene (the first ``![scene](../img/scene.png)`` on the page)."""
+def animated() -> dict[str, Animation]:
+    """{scene: its loop} for every scene that declares one (``Scene.animation``): each chapter page's picture."""
+    return {name: scene.animation for name, scene in scenes().items() if scene.animation}
 
 
 def page_scenes() -> dict[Path, str]:
@@ -241,7 +142,7 @@ def page_scenes() -> dict[Path, str]:
 
 def animation_block(name: str, path: Path) -> str:
     """The page's loop under its picture, and a line on how it was recorded and what it shows."""
-    anim = ANIMATIONS[name]
+    anim = get(name).animation
     image = Path(*_relative(ROOT / "docs" / "img" / f"{name}.webp", path.parent)).as_posix()
     if anim.start is None:
         start = f"step {get(name).preview.get('steps', 300)} (the picture's)"
@@ -254,17 +155,18 @@ def animation_block(name: str, path: Path) -> str:
     )
 
 
-def record_animation(runtime, name: str, path: Path) -> int:
-    """Record the loop of scene ``name`` to ``path``: the run loop and recorder of ``ugpcl run --video``
-    (``run_steps`` with a frame callback, ``Recorder``), drawn by ``offscreen.render`` through one view and camera.
-    Returns the number of frames."""
+def record_animation(runtime, name: str, path: Path, anim: Animation | None = None) -> int:
+    """Record the loop of scene ``name`` (its ``Scene.animation``, or ``anim``) to ``path``: the run loop and
+    recorder of ``ugpcl run --video`` (``run_steps`` with a frame callback, ``Recorder``), drawn by
+    ``offscreen.render`` through one view and camera. Returns the number of frames."""
     from ugpcl.viewer.offscreen import context, render
     from ugpcl.viewer.record import Recorder
     from ugpcl.viewer.views import create_view
 
     from .cli import run_steps
 
-    scene, anim = get(name), ANIMATIONS[name]
+    scene = get(name)
+    anim = anim or scene.animation
     preview = {**scene.preview, **anim.overrides}
     steps = preview.pop("steps", 300)
     sim = scene.create(runtime, 0, **preview)
@@ -304,7 +206,7 @@ def animations(names: list[str] | None = None) -> int:
             continue
         path = ROOT / "docs" / "img" / f"{name}.webp"
         frames = record_animation(runtime, name, path)
-        anim, size = ANIMATIONS[name], path.stat().st_size
+        anim, size = get(name).animation, path.stat().st_size
         rows.append(
             {
                 "scene": name,

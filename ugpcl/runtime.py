@@ -6,7 +6,7 @@ Device choice (first that applies):
   2. ``PYOPENCL_CTX``: PyOpenCL's own selector;
   3. the first GPU, then the first CPU (the Oclgrind simulator is only used when named).
 Every chosen device must build and run a probe kernel before it is trusted: PyPI's PoCL wheel, for one,
-lists a CPU it cannot compile for (DESIGN.md, "PoCL").
+lists a CPU it cannot compile for (docs/architecture.md, "Devices").
 """
 
 from __future__ import annotations
@@ -14,6 +14,8 @@ from __future__ import annotations
 import hashlib
 import math
 import os
+import re
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 from typing import ClassVar
@@ -21,6 +23,7 @@ from typing import ClassVar
 import numpy as np
 import pyopencl as cl
 import pyopencl.array as cla
+import pyopencl.cltypes as cltypes
 
 
 def _kernel_dir() -> Path:
@@ -58,12 +61,14 @@ def round_up(n: int, multiple: int) -> int:
     return (n + multiple - 1) // multiple * multiple
 
 
-def fitted_shape(wanted: tuple[int, ...], device: cl.Device) -> tuple[int, ...]:
-    """``wanted`` (a 2-D or 3-D work-group shape) halved until ``device`` runs it: an axis over the device's per-axis
-    limit first, else the largest axis (the first of equals)."""
+def fitted_shape(wanted: tuple[int, ...], device: cl.Device, limit: int | None = None) -> tuple[int, ...]:
+    """``wanted`` (a 1-D to 3-D work-group shape) halved until ``device`` runs it (and it holds at most ``limit``
+    work-items, a kernel's own limit): an axis over the device's per-axis limit first, else the largest axis (the
+    first of equals)."""
     limits = device.max_work_item_sizes[: len(wanted)]
+    most = min(device.max_work_group_size, limit or device.max_work_group_size)
     size = list(wanted)
-    while math.prod(size) > device.max_work_group_size or any(s > m for s, m in zip(size, limits, strict=True)):
+    while math.prod(size) > most or any(s > m for s, m in zip(size, limits, strict=True)):
         over = [a for a in range(len(size)) if size[a] > limits[a]]
         axis = over[0] if over else size.index(max(size))
         size[axis] = max(1, size[axis] // 2)
@@ -134,57 +139,223 @@ def choose_device(wanted: str | None = None) -> tuple[cl.Device, str]:
 # {{{ the one launch path
 
 
-class Kernel:
-    """One kernel of a built program, launched on the runtime's queue: ``kernel(global_size, local_size, *args)``.
+class LaunchError(TypeError):
+    """A kernel launched with arguments that do not fit its declaration: one line naming kernel and argument."""
 
-    Every chapter launches through this. PyOpenCL's ``cl_kernel(queue, gsize, lsize, *args)`` sets every argument
-    through its generic path on every call (about 54 us of host time per launch on an H100, 50 us on PoCL, against
-    9 us and 3 us for a bare ``enqueue_nd_range_kernel``; ``ugpcl bench launch`` measures all three). Here a buffer
-    argument is set only when a different buffer is passed (after a ping-pong swap, a reset), numpy scalars are set
-    from their bytes (0.4 us each: cheaper than comparing them with the last value), and the kernel is enqueued
-    with ``enqueue_nd_range_kernel``. Arguments are numpy scalars (``np.int32``, ``np.float32``, ``cltypes``
-    vectors), ``cl.Buffer``, ``pyopencl.array.Array`` (its buffer is passed), ``cl.LocalMemory`` or None.
+
+_SCALARS = {
+    "char": np.int8, "uchar": np.uint8, "short": np.int16, "ushort": np.uint16, "int": np.int32,
+    "uint": np.uint32, "long": np.int64, "ulong": np.uint64, "half": np.float16, "float": np.float32,
+    "double": np.float64,
+}  # fmt: skip
+"""OpenCL C scalar type names and their numpy types (the widths OpenCL fixes for every device)."""
+
+
+@dataclass(frozen=True)
+class KernelArg:
+    """One argument as the kernel declares it (read through ``-cl-kernel-arg-info``): ``kind`` is ``scalar``
+    (``dtype`` a numpy scalar or ``cltypes`` vector type), ``buffer`` (a __global or __constant pointer), ``local``
+    (a __local pointer: cl.LocalMemory), ``image``, ``sampler`` or ``bytes`` (a struct passed by value: a numpy
+    scalar of its layout)."""
+
+    name: str
+    declared: str
+    kind: str
+    dtype: np.dtype | None = None
+
+    def describe(self) -> str:
+        return f"{self.name} ({self.declared})"
+
+
+def _read_arg(kernel: cl.Kernel, i: int) -> KernelArg:
+    info = cl.kernel_arg_info
+    name = kernel.get_arg_info(i, info.NAME)
+    type_name = kernel.get_arg_info(i, info.TYPE_NAME).strip()
+    space = kernel.get_arg_info(i, info.ADDRESS_QUALIFIER)
+    qualifier = cl.kernel_arg_address_qualifier
+    base = type_name.rstrip("*").strip()
+    if type_name.endswith("*"):
+        if space == qualifier.LOCAL:
+            return KernelArg(name, f"__local {type_name}", "local")
+        space_name = "__constant" if space == qualifier.CONSTANT else "__global"
+        return KernelArg(name, f"{space_name} {type_name}", "buffer")
+    if base.startswith("image"):
+        return KernelArg(name, type_name, "image")
+    if base == "sampler_t":
+        return KernelArg(name, type_name, "sampler")
+    if base in _SCALARS:
+        return KernelArg(name, type_name, "scalar", np.dtype(_SCALARS[base]))
+    vector = re.fullmatch(r"([a-z]+)(2|3|4|8|16)", base)
+    if vector and vector[1] in _SCALARS:
+        return KernelArg(name, type_name, "scalar", np.dtype(getattr(cltypes, base)))
+    return KernelArg(name, type_name, "bytes")
+
+
+def _what(value) -> str:
+    """How a refused argument is named in a message: its type, and its value where that is short."""
+    if isinstance(value, np.generic | int | float | bool):
+        return f"{type(value).__name__} {value!r}"
+    if isinstance(value, cla.Array):
+        return f"an array of {value.dtype} {value.shape}"
+    return f"a {type(value).__name__}"
+
+
+def _number(value, dtype: np.dtype, refuse):
+    """``value`` (a Python or numpy number) as ``dtype`` where no information is lost: an integer of the type's
+    range, an integer a float type holds exactly, any float narrowed to a float type without overflowing it (float
+    arguments compute in their declared width anyway). ``refuse(why)`` raises the error."""
+    if isinstance(value, bool | np.bool_) or not isinstance(value, int | float | np.integer | np.floating):
+        refuse("")
+    if dtype.kind in "iu":
+        if not isinstance(value, int | np.integer):
+            refuse(": a float for an integer argument")
+        limits = np.iinfo(dtype)
+        if not limits.min <= int(value) <= limits.max:
+            refuse(f": outside {dtype} [{limits.min}, {limits.max}]")
+        return dtype.type(int(value))
+    with np.errstate(over="ignore"):
+        converted = dtype.type(value)
+    if isinstance(value, int | np.integer) and int(converted) != int(value):
+        refuse(f": {dtype} cannot hold this integer exactly")
+    if math.isfinite(float(value)) and not math.isfinite(float(converted)):
+        refuse(f": outside the range of {dtype}")
+    return converted
+
+
+class Kernel:
+    """One kernel of a built program, launched on the runtime's queue: ``kernel(global_size, local_size, *args)``
+    or ``kernel.over(shape, group, *args)``.
+
+    Every chapter launches through this, and it keeps the kernel's declaration: on first use it reads each
+    argument's name, address space and type (programs are built with ``-cl-kernel-arg-info``). A numpy scalar of
+    the declared type is set from its bytes (0.4 us; PyOpenCL's generic ``set_arg`` costs ~9 us); any other number
+    is converted where that is lossless (``_number``) or refused with a ``LaunchError`` naming kernel, argument,
+    declared type and what was given, as are a buffer for a scalar, a scalar for a buffer and a wrong argument
+    count. An argument given the very object it was last set from (a kept buffer, a reused scalar) is not set
+    again. Buffers are ``cl.Buffer``, ``pyopencl.array.Array`` or None (NULL). ``ugpcl bench launch`` times this
+    path against a bare enqueue.
     """
 
     def __init__(self, runtime: Runtime, kernel: cl.Kernel, name: str):
         self.runtime, self.cl, self.name = runtime, kernel, name
         self.num_args = kernel.num_args
-        self._buffers: list = [_UNSET] * self.num_args  # the buffer (or None) each argument was last set to
-        # A numpy scalar through the public set_arg costs ~9 us (PyOpenCL's generic argument path); its bytes
-        # through _set_arg_buf, which PyOpenCL's own generated invokers use, ~0.4 us.
-        self._set_bytes = getattr(kernel, "_set_arg_buf", kernel.set_arg)
+        self._given: list = [_UNSET] * self.num_args  # the object each argument was last set from
+        self._set_bytes = getattr(kernel, "_set_arg_buf", kernel.set_arg)  # PyOpenCL's own invokers use it
+        self._args: tuple[KernelArg, ...] | None = None
+        self._exact: tuple = ()  # per argument: the numpy type set from its bytes unchecked (None: check)
+        self.args  # noqa: B018 (read the declaration now: a wrong launch is refused on its first call)
+        self._groups: dict = {}
+
+    @property
+    def args(self) -> tuple[KernelArg, ...]:
+        """The declared arguments, read once."""
+        if self._args is None:
+            self._args = tuple(_read_arg(self.cl, i) for i in range(self.num_args))
+            self._exact = tuple(
+                a.dtype.type if a.kind == "scalar" and a.dtype.names is None else None for a in self._args
+            )
+        return self._args
 
     def __call__(self, global_size, local_size, *args) -> cl.Event:
         if len(args) != self.num_args:
-            raise TypeError(f"{self.name} takes {self.num_args} arguments, got {len(args)}")
-        buffers = self._buffers
+            raise self._count_error(args)
+        given = self._given
         for i, arg in enumerate(args):
-            if isinstance(arg, np.generic):
-                self._set_bytes(i, arg)
-                continue
-            if isinstance(arg, cla.Array):
-                arg = arg.base_data if arg.offset == 0 else arg.data
-            elif isinstance(arg, int | float):  # a Python number has no OpenCL width: say which argument
-                raise TypeError(f"{self.name} argument {i}: pass a numpy scalar (np.int32, np.float32), got {arg!r}")
-            if arg is not buffers[i] or isinstance(arg, cl.LocalMemory):
-                self.cl.set_arg(i, arg)
-                buffers[i] = arg
-        if isinstance(global_size, int):
+            if arg is not given[i]:  # the same object as last time (a kept buffer, a reused scalar) is already set
+                self._set(i, arg)
+        if type(global_size) is int:
             global_size = (global_size,)
-        if isinstance(local_size, int):
+        if type(local_size) is int:
             local_size = (local_size,)
         return cl.enqueue_nd_range_kernel(self.runtime.queue, self.cl, global_size, local_size)
 
-    def over(self, n: int, group_size: int, *args) -> cl.Event | None:
-        """``n`` work-items in 1-D groups of ``group_size``, the global size padded to whole groups (the kernel
-        guards ``i >= n``); nothing is enqueued when n <= 0, as the book skips a Dispatch of zero groups."""
-        if n <= 0:
+    def over(self, shape, group, *args) -> cl.Event | None:
+        """``shape`` work-items (an int, or a 2- or 3-tuple) in work-groups of ``group`` (of the same rank, halved
+        by ``fitted_shape`` where the kernel cannot run it; a kernel with a required work-group size gets exactly
+        that), the global size padded to whole groups: the kernel guards its own range. Nothing is enqueued when
+        any axis is <= 0, as the book skips a Dispatch of zero groups."""
+        shape = (shape,) if isinstance(shape, int | np.integer) else tuple(shape)
+        if min(shape) <= 0:
             return None
-        return self(round_up(n, group_size), group_size, *args)
+        local = self._groups.get(group)
+        if local is None:
+            local = self._groups[group] = self._fit(group, len(shape))
+        return self(tuple(round_up(int(n), g) for n, g in zip(shape, local, strict=True)), local, *args)
 
     def work_group_size(self) -> int:
         """The largest work-group this kernel runs with on the device (registers and local memory allowing)."""
         return int(self.cl.get_work_group_info(cl.kernel_work_group_info.WORK_GROUP_SIZE, self.runtime.device))
+
+    # {{{ the checked paths
+
+    def _fit(self, group, rank: int) -> tuple[int, ...]:
+        wanted = (group,) if isinstance(group, int | np.integer) else tuple(group)
+        if len(wanted) != rank:
+            raise LaunchError(f"{self.name}: a work-group of rank {len(wanted)} for a launch of rank {rank}")
+        info = cl.kernel_work_group_info.COMPILE_WORK_GROUP_SIZE
+        required = tuple(int(v) for v in self.cl.get_work_group_info(info, self.runtime.device))[:rank]
+        if any(required):
+            if required != tuple(int(g) for g in wanted):
+                raise LaunchError(f"{self.name}: requires work-groups of {required}, got {wanted}")
+            return required
+        return fitted_shape(tuple(int(g) for g in wanted), self.runtime.device, self.work_group_size())
+
+    def _set(self, i: int, arg) -> None:
+        if type(arg) is self._exact[i]:  # a numpy scalar of exactly the declared type: its bytes, unchecked
+            self._set_bytes(i, arg)
+        else:
+            a = self.args[i]
+            if a.kind == "scalar" or a.kind == "bytes":
+                self._set_bytes(i, self._scalar(a, arg))
+            else:
+                self.cl.set_arg(i, self._object(a, arg))
+        self._given[i] = arg
+
+    def _count_error(self, args) -> LaunchError:
+        names = ", ".join(a.name for a in self.args)
+        if len(args) < self.num_args:
+            missing = ", ".join(a.describe() for a in self.args[len(args) :])
+            return LaunchError(f"{self.name}({names}): {len(args)} arguments given, missing {missing}")
+        return LaunchError(f"{self.name}({names}) takes {self.num_args} arguments, got {len(args)}")
+
+    def _refuse(self, a: KernelArg, value, why: str = ""):
+        raise LaunchError(f"{self.name}: argument {a.describe()} got {_what(value)}{why}")
+
+    def _scalar(self, a: KernelArg, value):
+        if a.kind == "bytes":  # a struct by value: its bytes, as a numpy scalar of its layout
+            if not isinstance(value, np.generic):
+                self._refuse(a, value, ": pass a numpy scalar of the struct's layout")
+            return value
+        dtype = a.dtype
+        if isinstance(value, np.ndarray) and value.ndim == 0:  # cltypes.make_float4 and friends: a 0-d array
+            value = value[()]
+        if dtype.names is None:
+            return _number(value, dtype, lambda why: self._refuse(a, value, why))
+        if isinstance(value, np.void) and value.dtype == dtype:
+            return value
+        parts = tuple(value) if isinstance(value, list | tuple | np.ndarray) else None
+        if parts is None or len(parts) != len(dtype.names):
+            self._refuse(a, value, f": pass {len(dtype.names)} numbers")
+        base = dtype.fields[dtype.names[0]][0]
+        return np.array(tuple(_number(v, base, lambda why: self._refuse(a, value, why)) for v in parts), dtype)[()]
+
+    def _object(self, a: KernelArg, value):
+        if a.kind == "buffer":
+            if isinstance(value, cla.Array):
+                return value.base_data if value.offset == 0 else value.data
+            if value is None or (isinstance(value, cl.Buffer)):
+                return value
+        elif a.kind == "local":
+            if isinstance(value, cl.LocalMemory):
+                return value
+        elif a.kind == "image":
+            if isinstance(value, cl.Image):
+                return value
+        elif a.kind == "sampler" and isinstance(value, cl.Sampler):
+            return value
+        self._refuse(a, value)
+
+    # }}}
 
 
 _UNSET = object()
@@ -206,9 +377,6 @@ class Program:
             self._kernels[name] = Kernel(self.runtime, cl.Kernel(self.program, name), name)
         return self._kernels[name]
 
-    def __getitem__(self, name: str) -> Kernel:
-        return self.kernel(name)
-
 
 def _format_define(value) -> str:
     if isinstance(value, bool):
@@ -217,6 +385,9 @@ def _format_define(value) -> str:
         return f"{value!r}f"
     return str(value)
 
+
+ARG_INFO = "-cl-kernel-arg-info"
+"""Build option that keeps each kernel argument's name and type for ``Kernel`` to check launches against."""
 
 ZERO_FILL_PIECE = 1 << 30
 """Bytes per enqueue_fill_buffer in Runtime.zeros (below NVIDIA's 2 GiB fill limit)."""
@@ -303,16 +474,21 @@ class Runtime:
     def _build(self, path: Path, defines: dict) -> Program:
         if not path.exists():
             raise BuildError(f"{path}: no such kernel file")
+        return self.program_from_source(path.read_text(), path.name, **defines)
+
+    def program_from_source(self, text: str, name: str = "<source>", **defines) -> Program:
+        """Build OpenCL C ``text`` as a ``clkernels/`` file is built (the include folder on the path, argument info
+        kept, ``-D`` defines): tests' own kernels launch through the same ``Kernel`` checks. Not cached."""
         # '#line' makes build logs and Oclgrind reports name the real file; the header digest makes a changed
         # header rebuild every program (the driver caches compare source text, not included files).
         headers = hashlib.sha1(b"".join(p.read_bytes() for p in sorted(INCLUDE_DIR.glob("*.h")))).hexdigest()[:12]
-        source = f'// headers {headers}\n#line 1 "{path.name}"\n' + path.read_text()
-        options = [f"-I{INCLUDE_DIR}"] + [f"-D{k}={_format_define(v)}" for k, v in sorted(defines.items())]
+        source = f'// headers {headers}\n#line 1 "{name}"\n' + text
+        options = [f"-I{INCLUDE_DIR}", ARG_INFO] + [f"-D{k}={_format_define(v)}" for k, v in sorted(defines.items())]
         try:
             program = cl.Program(self.context, source).build(options=options)
         except cl.RuntimeError as err:
-            raise BuildError(f"{path.name}: build failed on {self.label} with {' '.join(options[1:])}\n{err}") from None
-        return Program(self, program, path, options)
+            raise BuildError(f"{name}: build failed on {self.label} with {' '.join(options[2:])}\n{err}") from None
+        return Program(self, program, KERNEL_DIR / name, options)
 
     # }}}
 

@@ -1,12 +1,15 @@
-"""The scene interface every chapter implements (DESIGN.md, "Scene interface").
+"""The scene interface every chapter implements (docs/architecture.md, "Contracts").
 
 * ``Params``: a frozen dataclass whose defaults are the book's values. Fields declared with ``param()`` carry
   their range; construction validates every field and raises ``ValueError`` naming it, the range and the value.
   Rules across fields are declared in ``limits`` (shown under the table) and enforced by ``check()``.
-* ``Simulation(runtime, params, seed)``: ``reset()``, ``step(dt)``, ``state() -> dict`` (exactly what ``.npz``
-  holds) and ``stats() -> dict``. One method per book kernel; ``step`` calls them in the book's order.
+* ``Simulation(runtime, params, seed)``: the chapter writes ``_reset()`` (buffers, programs, first kernels),
+  ``_step(dt)`` (one method per book kernel, called in the book's order), ``state() -> dict`` (exactly what ``.npz``
+  holds) and ``stats() -> dict``. The base class's ``step(dt)`` checks ``dt``, calls ``_step`` and advances
+  ``time`` and ``steps``: no chapter does that bookkeeping itself.
 * ``Scene``: a name the CLI and viewer know (``ugpcl run boids``), bound to a Simulation class and, for scenes
-  that are variants of one chapter, parameter overrides.
+  that are variants of one chapter, parameter overrides; everything docs and tests need to know about a scene
+  (its preview, its page's loop, its CPU sizes) is a field here.
 """
 
 from __future__ import annotations
@@ -270,6 +273,8 @@ class Simulation:
     """State arrays where inf is a value, not a divergence (NaN still is): poisson_disk's nn_dist of a lone sample."""
     scene: Scene | None = None
     """The scene this simulation was created for (``Scene.create``): its name, defaults and view."""
+    first_scene: ClassVar[Scene | None] = None
+    """The first ``Scene`` declared for this class (set by ``Scene``): whose defaults ``default_params`` gives."""
 
     def __init__(self, runtime, params: Params | None = None, seed: int = 0):
         self.runtime = runtime
@@ -284,12 +289,8 @@ class Simulation:
     @classmethod
     def default_params(cls) -> Params:
         """The Params of the first scene that runs this class (its ``Scene.defaults`` applied), else the class's."""
-        from .scenes import scenes
-
-        for scene in scenes().values():
-            if scene.simulation is cls:
-                return scene.params()
-        return cls.Params()
+        first = cls.__dict__.get("first_scene")
+        return first.params() if first is not None else cls.Params()
 
     def reset(self) -> None:
         """Back to the initial state for the current params and seed: time and step count to 0, then the
@@ -301,6 +302,17 @@ class Simulation:
         raise NotImplementedError
 
     def step(self, dt: float | None = None) -> None:
+        """One step of ``dt`` seconds (None: ``default_dt``): ``dt`` is checked (``check_dt``), the chapter's
+        ``_step(dt)`` runs its kernels, then ``time`` and ``steps`` advance. A chapter whose kernels draw the frame
+        at the end of the step passes them ``self.time + dt``."""
+        dt = check_dt(dt, self.default_dt)
+        simulated = self._step(dt)
+        self.time += dt if simulated is None else simulated
+        self.steps += 1
+
+    def _step(self, dt: float) -> float | None:
+        """The chapter's kernels for one step, in the book's order. Returns None, or the time the step simulated
+        where that is not ``dt`` (SPH's sub-steps capped at the stable time step)."""
         raise NotImplementedError
 
     def state(self) -> dict[str, np.ndarray]:
@@ -332,17 +344,14 @@ class Simulation:
         if changed - new.live_names():
             self.reset()
 
-    def _advance(self, dt: float) -> None:
-        """Bookkeeping shared by every ``step``."""
-        self.time += dt
-        self.steps += 1
-
 
 def check_dt(dt: float | None, default: float) -> float:
-    """The step to use: ``default`` for None; otherwise a finite dt > 0 (else ValueError naming ``dt``)."""
+    """The step to use: ``default`` for None; otherwise a finite dt in (0, 1] (else ValueError naming ``dt``)."""
     if dt is None:
         return default
-    if not (isinstance(dt, int | float | np.floating) and math.isfinite(dt) and 0 < dt <= 1.0):
+    if isinstance(dt, bool) or not (
+        isinstance(dt, int | float | np.integer | np.floating) and math.isfinite(dt) and 0 < dt <= 1.0
+    ):
         raise ValueError(f"dt must be in (0, 1], got {dt!r}")
     return float(dt)
 
@@ -353,12 +362,43 @@ def check_dt(dt: float | None, default: float) -> float:
 
 
 @dataclass(frozen=True)
+class Animation:
+    """How the loop of a chapter page's picture scene (docs/img/<scene>.webp, ``make anim``) is recorded: ``start``
+    steps (default: the preview's), then ``frames`` frames ``every`` steps apart, with the parameters the preview
+    sets and ``overrides``; ``swing`` turns a still scene's orbit camera ``swing`` degrees either side of the
+    picture's (one period per loop, so the loop has no seam). Scenes of many small dots compress badly: a lower WebP
+    ``quality`` keeps them within the size budget."""
+
+    shows: str
+    """What the loop shows (the page's caption)."""
+    every: int = 1
+    start: int | None = None
+    frames: int = 45
+    swing: float = 0.0
+    quality: int = 70
+    overrides: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class PreviewCheck:
+    """How the tests judge docs/img/<scene>.png: the subject (pixels unlike the background) covers more than
+    ``min_subject`` of the frame, and its bounding box stays clear of the frame's edge unless ``fills_frame`` says
+    why it may not. A scene drawn in thin lines or small marks lowers ``min_subject`` and says why in ``sparse``."""
+
+    min_subject: float = 0.05
+    """5 % of a 1280x720 frame is a 215-pixel square."""
+    sparse: str = ""
+    fills_frame: str = ""
+
+
+@dataclass(frozen=True)
 class Scene:
     """A runnable name: ``simulation`` with ``defaults`` applied to its Params.
 
     ``defaults`` is the one way a scene changes the values of its Params class (the book's scene files differ from
     the script defaults; CellularGrowthSphere.unity from CellularGrowth.unity). A Params subclass adds fields; it
-    never re-declares an inherited one to change its default."""
+    never re-declares an inherited one to change its default. Everything else the project knows about a scene is
+    a field here, read by the viewer, docs and tests: no list elsewhere names scenes."""
 
     name: str
     simulation: type[Simulation]
@@ -368,9 +408,18 @@ class Scene:
     """Name of the view class in ``viewer/views/<stem>.py`` (None: the module's ``View``)."""
     preview: dict = field(default_factory=lambda: {"steps": 300})
     """How docs/img/<name>.png is made (``make png``): ``steps`` and parameter overrides."""
+    preview_check: PreviewCheck = PreviewCheck()
+    """How the tests judge that picture."""
+    animation: Animation | None = None
+    """The loop of the chapter page this scene is the picture of (``make anim``); None for the other scenes."""
     interactive: dict = field(default_factory=dict)
     """Parameter overrides the viewer starts with on a CPU device, sized to run at interactive rates there (the
-    book's sizes are for a GPU); ``--set`` still wins, and ``ugpcl run`` ignores them."""
+    book's sizes are for a GPU); ``--set`` still wins, and ``ugpcl run`` ignores them. The tests step every scene
+    that has them at these sizes (a scene too slow at its book size on PoCL must have them)."""
+
+    def __post_init__(self):
+        if "first_scene" not in vars(self.simulation):  # Simulation.default_params: the class's first scene
+            self.simulation.first_scene = self
 
     @property
     def stem(self) -> str:

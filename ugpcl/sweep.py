@@ -162,7 +162,7 @@ def plan(
 def run_job(job: Job) -> dict:
     """Run one job on this worker and return its index row; a failure becomes a row with the error's line
     (``cli.report``) rather than an exception, so that it does not stop the other tasks."""
-    from .scenes import get
+    from .registry import get
 
     start = time.perf_counter()
     row = {"run": job.name, "scene": job.scene, "seed": job.seed, "steps": job.steps, "worker": _worker_name()}

@@ -20,11 +20,11 @@ import numpy as np
 import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
-from ..benchmark import seconds_per_step
+from ..bench.timing import seconds_per_step
 from ..grid import UniformGrid
 from ..runtime import round_up
+from ..scene import Animation, PreviewCheck, Scene, param
 from ..scene import Params as BaseParams
-from ..scene import Scene, check_dt, param
 from ..scene import Simulation as BaseSimulation
 
 BOID_DTYPE = np.dtype([("velocity", "<f4", 4), ("position", "<f4", 4)])
@@ -178,11 +178,9 @@ class Simulation(BaseSimulation):
 
     # }}}
 
-    def step(self, dt: float | None = None) -> None:
-        dt = check_dt(dt, self.default_dt)
+    def _step(self, dt: float) -> None:
         self.force_cs()  # book order: ForceCS, then IntegrateCS
         self.integrate_cs(dt)
-        self._advance(dt)
 
     def boids(self) -> np.ndarray:
         """The raw Boid records (N,) of BOID_DTYPE, as the view uploads them."""
@@ -293,5 +291,7 @@ SCENES = [
             "alignment_neighborhood_radius": 4.0,
         },
         interactive={"max_object_num": 2048},
+        animation=Animation("the flock turning in its box", every=3),
+        preview_check=PreviewCheck(min_subject=0.02, sparse="small boids spread through their cage"),
     )
 ]

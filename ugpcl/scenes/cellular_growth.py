@@ -38,11 +38,11 @@ import numpy as np
 import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
-from ..benchmark import grid_pairs_2d, seconds_per_call, seconds_per_step
+from ..bench.timing import grid_pairs_2d, seconds_per_call, seconds_per_step
 from ..buffers import PingPong, Pool
 from ..grid import UniformGrid
+from ..scene import Animation, Scene, param
 from ..scene import Params as BaseParams
-from ..scene import Scene, check_dt, param
 from ..scene import Simulation as BaseSimulation
 
 PARTICLE_DTYPE = np.dtype(
@@ -363,20 +363,19 @@ class ParticleSimulation(BaseSimulation):
             return self.emit_point
         return (0.0, 0.0) if self.steps < self.params.emit_frames else None
 
-    def _divide_if_due(self) -> None:
-        """IDivider: one Divide after the step in which the clock reached the next tick (at most one per step)."""
-        if self.time + 1e-9 >= self.next_divide:
+    def _divide_if_due(self, time: float) -> None:
+        """IDivider: one Divide after the step in which the clock reached the next tick (at most one per step);
+        ``time`` is the clock at the end of the step."""
+        if time + 1e-9 >= self.next_divide:
             self.divide()
-            self.next_divide = max(self.next_divide + self.params.divide_interval, self.time)
+            self.next_divide = max(self.next_divide + self.params.divide_interval, time)
 
-    def step(self, dt: float | None = None) -> None:
-        dt = check_dt(dt, self.default_dt)
+    def _step(self, dt: float) -> None:
         point = self._emitting()
         if point is not None:
             self.emit_particles(point, time=self.time + dt)
         self.update_particles(dt)
-        self._advance(dt)
-        self._divide_if_due()
+        self._divide_if_due(self.time + dt)
 
     # {{{ state
 
@@ -601,8 +600,7 @@ class Simulation(ParticleSimulation):
             return self.divide_edges_closed(dividable_edges)
         return self.divide_edges_branch(dividable_edges)
 
-    def step(self, dt: float | None = None) -> None:
-        dt = check_dt(dt, self.default_dt)
+    def _step(self, dt: float) -> None:
         point = self._emitting()
         if point is not None:
             self.emit_particles(point, time=self.time + dt)
@@ -610,8 +608,7 @@ class Simulation(ParticleSimulation):
             self.update_edges()
             self.spring_edges()
             self.update_particles(dt)
-        self._advance(dt)
-        self._divide_if_due()
+        self._divide_if_due(self.time + dt)
 
 
 # {{{ benchmark
@@ -704,6 +701,13 @@ SCENES = [
         defaults=NETWORK_DEFAULTS,
         view="View",
         preview={"steps": 900, "count": 1024},
+        animation=Animation(
+            "cells divide and grow into the ring (the book's fixed camera: the fitted one would frame the first cells "
+            "only)",
+            every=12,
+            start=360,
+            overrides={"camera": "book"},
+        ),
     ),
     Scene(
         "cellular_growth_particles",

@@ -27,13 +27,13 @@ import numpy as np
 import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
-from ..benchmark import seconds_per_call, seconds_per_step
+from ..bench.timing import seconds_per_call, seconds_per_step
 from ..buffers import PingPong
 from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
 from ..runtime import round_up
+from ..scene import Animation, Scene, param
 from ..scene import Params as BaseParams
-from ..scene import Scene, check_dt, param
 from ..scene import Simulation as BaseSimulation
 
 TRANSLATE_SPEED = 0.125
@@ -239,14 +239,12 @@ class Simulation(BaseSimulation):
         for k in range(self.params.substeps):
             self.cs_simulation(write_normal=k == self.params.substeps - 1)
 
-    def step(self, dt: float | None = None) -> None:
+    def _step(self, dt: float) -> None:
         """One frame: place the collider at the frame's time, then `substeps` CSSimulation launches."""
-        dt = check_dt(dt, self.default_dt)
         self.sphere_params = self.collider(self.sphere_time)
         self.cs_substeps()
         if self.params.sphere_motion:
             self.sphere_time += dt
-        self._advance(dt)
 
     # {{{ state
 
@@ -398,6 +396,7 @@ SCENES = [
         "GPU cloth: a mass-spring sheet draped over a moving sphere (vol.4 ch.3)",
         defaults=MAIN_SCENE,
         preview={"steps": 1000},
+        animation=Animation("the sphere pushes into the hanging cloth, which drapes over it", every=12, start=560),
     ),
     Scene(
         "cloth_debug",

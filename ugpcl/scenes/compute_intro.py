@@ -19,11 +19,11 @@ from dataclasses import dataclass
 import numpy as np
 import pyopencl as cl
 
-from ..benchmark import seconds_per_call
+from ..bench.timing import seconds_per_call
 from ..resources import Allocation
 from ..runtime import round_up
+from ..scene import Animation, Scene, param
 from ..scene import Params as BaseParams
-from ..scene import Scene, check_dt, param
 from ..scene import Simulation as BaseSimulation
 
 ARRAY_LEN = 4
@@ -202,7 +202,7 @@ class Simulation(BaseSimulation):
 
     # }}}
 
-    def step(self, dt: float | None = None) -> None:
+    def _step(self, dt: float) -> None:
         """The book's Update: dispatch the texture kernels; the array sample re-runs so that changed
         int_value/groups show at once (its result is otherwise the same as at Start)."""
         sample = self.params.sample
@@ -210,7 +210,6 @@ class Simulation(BaseSimulation):
             self.run_array_sample()
         if sample in ("all", "texture"):
             self.run_texture_sample()
-        self._advance(check_dt(dt, self.default_dt))
 
     def state(self) -> dict[str, np.ndarray]:
         return {**self.results, "local_size": np.array([*self.params.local_size, 1], np.int32)}
@@ -280,5 +279,10 @@ SCENES = [
         "Compute intro sample 2: gradients written to two 512x512 textures",
         {"sample": "texture"},
         preview={"steps": 1},
+        animation=Animation(
+            "the two textures that `KernelFunction_A` and `KernelFunction_B` fill do not change, so the camera swings "
+            "round them",
+            swing=35.0,
+        ),
     ),
 ]

@@ -26,8 +26,8 @@ import numpy as np
 from ..geometry import ear_clipping as ec
 from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
+from ..scene import Animation, Scene, param
 from ..scene import Params as BaseParams
-from ..scene import Scene, check_dt, param
 from ..scene import Simulation as BaseSimulation
 
 MAX_BATCH_VERTICES = 64
@@ -197,10 +197,8 @@ class Simulation(BaseSimulation):
 
     # }}}
 
-    def step(self, dt: float | None = None) -> None:
-        dt = check_dt(dt, self.default_dt)
+    def _step(self, dt: float) -> None:
         self.clips = min(len(self.ear_triangles), self.clips + self.params.clips_per_step)
-        self._advance(dt)
 
     def seek(self, clip: int) -> None:
         """Show the first ``clip`` clipped ears (clamped to 0 .. all)."""
@@ -416,5 +414,10 @@ SCENES = [
         Simulation,
         "Polygons with holes and nested islands triangulated by ear clipping (vol.4 ch.5)",
         preview={"steps": 1, "preset": "glyph", "clips_per_step": 1 << 20},
+        animation=Animation(
+            "the ear list replays, 4 clipped ears a frame, until the glyph is triangulated",
+            start=0,
+            overrides={"clips_per_step": 4},
+        ),
     ),
 ]

@@ -17,18 +17,19 @@ in w that Unity ignores); ``plane_resolution`` (cells per Plane side, Unity's Pl
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 import pyopencl.cltypes as cltypes
 
-from ..benchmark import seconds_per_call
+from ..bench.timing import seconds_per_call
 from ..geometry import grass as geo
 from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
 from ..geometry.transforms import euler_matrix, translation
+from ..scene import Animation, Scene, param
 from ..scene import Params as BaseParams
-from ..scene import Scene, check_dt, param
 from ..scene import Simulation as BaseSimulation
 
 GRASS_PARAMS_DTYPE = np.dtype(
@@ -178,13 +179,14 @@ class Simulation(BaseSimulation):
 
     # {{{ kernels
 
-    def grass_expand(self) -> None:
-        """Grass.shader geom() for every triangle of every plane at the current shader time."""
+    def grass_expand(self, time: float | None = None) -> None:
+        """Grass.shader geom() for every triangle of every plane at the shader time of ``time`` (default: now)."""
         p = self.params
+        shader_time = self.shader_time if time is None else p.start_time + time
         if p.backend == "numpy":
-            self.result = geo.expand_grass(self.ground, self.samples, self.models, p, self.shader_time)
+            self.result = geo.expand_grass(self.ground, self.samples, self.models, p, shader_time)
             return
-        self.d_params.set(p.block(self.shader_time))
+        self.d_params.set(p.block(shader_time))
         self.program.kernel("GrassExpand")(
             (self.blades,),
             None,
@@ -204,10 +206,8 @@ class Simulation(BaseSimulation):
 
     # }}}
 
-    def step(self, dt: float | None = None) -> None:
-        dt = check_dt(dt, self.default_dt)
-        self._advance(dt)  # the frame at the end of this step: time first, then the geometry stage
-        self.grass_expand()
+    def _step(self, dt: float) -> None:
+        self.grass_expand(self.time + dt)  # the geometry stage draws the frame at the end of this step
 
     def update(self, **changes) -> None:
         super().update(**changes)
@@ -324,9 +324,7 @@ class PyramidSimulation(BaseSimulation):
         )
         self.result = None
 
-    def step(self, dt: float | None = None) -> None:
-        dt = check_dt(dt, self.default_dt)
-        self._advance(dt)
+    def _step(self, dt: float) -> None:
         self.pyramid_expand()
 
     def update(self, **changes) -> None:
@@ -410,6 +408,13 @@ SCENES = [
         view="GrassView",
         # sin(30/20) ~ 1: the wind's full lean; 6x6 planes: the whole lawn with its edges fits the book's camera
         preview={"steps": 1, "start_time": 30.0, "planes": (6, 6)},
+        animation=Animation(
+            "the wind sways the blades, one sway period per loop (wind_time_scale = 2 pi / 1.5 s; the book's 0.05 "
+            "sways too slowly to see)",
+            every=2,
+            # 45 frames x 2 steps x dt 1/60 s = 1.5 s of shader time: one whole period of sin(t * wind_time_scale)
+            overrides={"wind_time_scale": round(2 * math.pi / ((45 * 2) / 60), 4)},
+        ),
     ),
     Scene(
         "grass_pyramid",

@@ -25,10 +25,10 @@ from dataclasses import dataclass
 import numpy as np
 import pyopencl.cltypes as cltypes
 
-from ..benchmark import seconds_per_call
+from ..bench.timing import seconds_per_call
 from ..resources import Allocation
+from ..scene import Animation, PreviewCheck, Scene, param
 from ..scene import Params as BaseParams
-from ..scene import Scene, check_dt, param
 from ..scene import Simulation as BaseSimulation
 
 BOOK_SAMPLES = {0: 1, 1: 20, 2: 10}
@@ -200,8 +200,8 @@ class Simulation(BaseSimulation):
         pixels = params.width * params.height
         return [Allocation("rgba frame", 16 * pixels, "width")]
 
-    def step(self, dt: float | None = None) -> None:
-        self._advance(check_dt(dt, self.default_dt))
+    def _step(self, dt: float) -> None:
+        """Nothing to run: a frame is rendered from the time when ``state()`` asks for it."""
 
     # {{{ the frame's values (KleinianGroup.Update)
 
@@ -445,6 +445,15 @@ SCENES = [
         "Limit set of a Kleinian group: the band of tangent circles, per pixel (vol.4 ch.2, KleinianGroup)",
         defaults={"use_uv_animation": True, "time_scale": 1.0},
         preview={"steps": 0, "use_uv_animation": False},
+        animation=Animation(
+            "the book's uv animation (use_uv_animation: t along animKleinU/V over its 1 s clip, here in 2 s) grows the "
+            "spirals",
+            every=2,
+            start=1,
+            frames=30,
+            overrides={"use_uv_animation": True},
+        ),
+        preview_check=PreviewCheck(fills_frame="the limit set tiles the whole plane"),
     ),
     Scene(
         "kleinian_inverse",
@@ -458,5 +467,6 @@ SCENES = [
             "back_color": BACK_COLOR_INVERSE,
         },
         preview={"steps": 600},
+        preview_check=PreviewCheck(fills_frame="the limit set tiles the whole plane"),
     ),
 ]

@@ -29,14 +29,14 @@ import numpy as np
 import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
-from ..benchmark import seconds_per_call
+from ..bench.timing import seconds_per_call
 from ..buffers import Pool
 from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
 from ..resources import Allocation
 from ..runtime import round_up
+from ..scene import Animation, PreviewCheck, Scene, param
 from ..scene import Params as BaseParams
-from ..scene import Scene, check_dt, param
 from ..scene import Simulation as BaseSimulation
 
 TRIANGLE_DTYPE = np.dtype([("position", "<f4", (3, 3)), ("normal", "<f4", (3, 3)), ("cell", "<u4")])
@@ -265,12 +265,10 @@ class Simulation(BaseSimulation):
         self.sample_field()
         self.polygonize()
 
-    def step(self, dt: float | None = None) -> None:
-        dt = check_dt(dt, self.default_dt)
+    def _step(self, dt: float) -> None:
         if self.params.animate:
             self.field_time += dt
         self.remesh()
-        self._advance(dt)
 
     # {{{ results
 
@@ -390,6 +388,12 @@ SCENES = [
         "GPU marching cubes: three pulsing metaballs polygonised every frame (vol.1 ch.7)",
         defaults={"segment_num": 64, "diffuse_color": (0.3001, 0.5956, 0.2759), "metallic": 0.5},
         preview={"steps": 20},
+        animation=Animation(
+            "the three metaballs pulse through two periods of the book's sin(8 t) (47 steps each), remeshed every step",
+            every=2,
+            frames=47,
+        ),
+        preview_check=PreviewCheck(fills_frame="the floor runs to the horizon"),
     ),
     Scene(
         "marching_cubes_kaiware",
@@ -398,5 +402,6 @@ SCENES = [
         defaults={"segment_num": 64, "shape": "kaiware", "diffuse_color": (0.3001, 0.5956, 0.2759), "metallic": 0.5},
         preview={"steps": 10},
         interactive={"segment_num": 40},
+        preview_check=PreviewCheck(fills_frame="the floor runs to the horizon"),
     ),
 ]

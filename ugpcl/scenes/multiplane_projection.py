@@ -26,12 +26,12 @@ from dataclasses import dataclass
 import numpy as np
 import pyopencl.cltypes as cltypes
 
-from ..benchmark import seconds_per_call
+from ..bench.timing import seconds_per_call
 from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
 from ..geometry.transforms import euler_matrix, perspective
+from ..scene import Animation, Scene, param
 from ..scene import Params as BaseParams
-from ..scene import Scene, check_dt, param
 from ..scene import Simulation as BaseSimulation
 
 FACE_NAMES = ("Front", "Right", "Back", "Left", "Bottom", "Top")
@@ -409,10 +409,8 @@ class Simulation(BaseSimulation):
 
     # }}}
 
-    def step(self, dt: float | None = None) -> None:
-        dt = check_dt(dt, self.default_dt)
+    def _step(self, dt: float) -> None:
         self.camera_generator_update()  # the images follow on demand: a headless run only needs the last ones
-        self._advance(dt)
 
     def update(self, **changes) -> None:
         super().update(**changes)
@@ -563,5 +561,8 @@ SCENES = [
         Simulation,
         "Room projection: 5 (or 6) off-axis face cameras from one eye, seamless from the eye (vol.1 ch.9)",
         preview={"steps": 1},
+        animation=Animation(
+            "the room and its projected walls do not change with time, so the camera swings round the room", swing=30.0
+        ),
     )
 ]

@@ -24,7 +24,7 @@ import pyopencl.cltypes as cltypes
 
 from ..geometry import poisson_disk as pd
 from ..random import key_of_seed
-from ..scene import ParamError, Scene, check_dt, param
+from ..scene import Animation, ParamError, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
 
@@ -196,8 +196,7 @@ class Simulation(BaseSimulation):
         while self.sample_step():
             pass
 
-    def step(self, dt: float | None = None) -> None:
-        dt = check_dt(dt, self.default_dt)
+    def _step(self, dt: float) -> None:
         n = self.params.steps_per_frame
         if n == 0:
             self.finish()
@@ -205,7 +204,6 @@ class Simulation(BaseSimulation):
             for _ in range(n):
                 if not self.sample_step():
                     break
-        self._advance(dt)
 
     # }}}
 
@@ -367,6 +365,11 @@ SCENES = [
         "Poisson disk sampling by Bridson's algorithm, 2-D discs (vol.4 ch.7)",
         defaults={"lo": (100.0, -100.0, 0.0), "size": (200.0, 200.0, 1.0), "r": 5.0, "radius_rate": 1.0},
         preview={"steps": 1},
+        animation=Animation(
+            "Bridson's sampler fills the box from one point, 36 active-point steps a frame",
+            start=0,
+            overrides={"steps_per_frame": 36},
+        ),
     ),
     Scene(
         "poisson_disk_3d",

@@ -19,12 +19,12 @@ from dataclasses import dataclass
 import numpy as np
 import pyopencl.cltypes as cltypes
 
-from ..benchmark import seconds_per_call
+from ..bench.timing import seconds_per_call
 from ..geometry import procedural as pm
 from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
+from ..scene import Animation, PreviewCheck, Scene, param
 from ..scene import Params as BaseParams
-from ..scene import Scene, check_dt, param
 from ..scene import Simulation as BaseSimulation
 
 MATERIALS = ("standard", "uv", "normal", "all")
@@ -63,8 +63,8 @@ class MeshSimulation(BaseSimulation):
     def build(self) -> Mesh:
         raise NotImplementedError
 
-    def step(self, dt: float | None = None) -> None:
-        self._advance(check_dt(dt, self.default_dt))
+    def _step(self, dt: float) -> None:
+        """Nothing to run: the mesh was built at reset and does not change with time."""
 
     def mesh(self) -> Mesh:
         return self.built
@@ -382,10 +382,8 @@ class TreeSimulation(MeshSimulation):
         mesh = Mesh(out["positions"].get(), out["triangles"].get(), out["normals"].get(), out["uvs"].get())
         return mesh, out["tangents"].get().reshape(-1, 4)
 
-    def step(self, dt: float | None = None) -> None:
-        dt = check_dt(dt, self.default_dt)
+    def _step(self, dt: float) -> None:
         self.grow_t = min(1.0, self.grow_t + dt / self.params.grow_seconds)  # _T of ProceduralTree.cginc
-        self._advance(dt)
 
     def restart_growth(self) -> None:
         """_T back to 0: the tree grows again."""
@@ -531,6 +529,15 @@ SCENES = [
         TreeSimulation,
         "A procedural tree of random branches, each a tube, growing by its _T clip (vol.1 ch.1)",
         view="TreeView",
+        animation=Animation(
+            "the tree grows as the book's `_T` clip goes from 0 to 1 (in 2.2 s here, then it stays grown) while the "
+            "camera swings",
+            every=4,
+            start=24,
+            swing=25.0,
+            overrides={"grow_seconds": 2.2},
+        ),
+        preview_check=PreviewCheck(min_subject=0.02, sparse="one tree of thin branches"),
     ),
     Scene(
         "procedural_modeling_forest",
@@ -607,5 +614,6 @@ SCENES = [
         {"depth": 7, "length": 1.0, "angle": 30.0},
         view="LSystemView",
         preview={"steps": 1},
+        preview_check=PreviewCheck(min_subject=0.003, sparse="one-pixel lines on white"),
     ),
 ]

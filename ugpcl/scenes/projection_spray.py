@@ -27,13 +27,13 @@ import numpy as np
 import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
-from ..benchmark import seconds_per_step
+from ..bench.timing import seconds_per_step
 from ..geometry.mesh import Mesh, vertex_normals
 from ..geometry.mesh_io import write_mesh
 from ..geometry.transforms import euler_matrix, perspective, translation
 from ..geometry.uv_atlas import bake, per_triangle_layout, tile_bounds, unit_cube, uv_sphere
 from ..resources import Allocation
-from ..scene import ParamError, Scene, check_dt, param
+from ..scene import Animation, ParamError, PreviewCheck, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
 
@@ -469,11 +469,9 @@ class Simulation(BaseSimulation):
 
     # }}}
 
-    def step(self, dt: float | None = None) -> None:
-        dt = check_dt(dt, self.default_dt)
+    def _step(self, dt: float) -> None:
         self.frame(self.time, dt, self.params.painting)
         self.records.append((self.last["pose"], self.last["aim"], self.last["color"], self.last["o2w"]))
-        self._advance(dt)
 
     def frame(self, time: float, dt: float, painting: bool) -> None:
         """One frame of the sample's DrawingManager at ``time``: pose, depth map, paint or guide, dilation."""
@@ -686,6 +684,7 @@ SCENES = [
         "Projection spray: a spray light paints the sample's cube and sphere as they turn (vol.1 ch.10)",
         preview={"steps": 240, "tex": 512, "depth_res": 512},
         interactive={"tex": 384, "depth_res": 256},
+        animation=Animation("the spray circles the turning cube and sphere and paints them", every=6, start=30),
     ),
     Scene(
         "projection_spray_stencil",
@@ -709,5 +708,6 @@ SCENES = [
         },
         preview={"steps": 480, "tex": 1024, "depth_res": 512},
         interactive={"tex": 512, "depth_res": 256},
+        preview_check=PreviewCheck(min_subject=0.02, sparse="a slim figure beside the spray's frustum lines"),
     ),
 ]

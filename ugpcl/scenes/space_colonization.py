@@ -44,8 +44,8 @@ from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
 from ..grid import LOCAL_SIZE as GRID_LOCAL_SIZE
 from ..grid import UniformGrid
+from ..scene import Animation, Scene, param
 from ..scene import Params as BaseParams
-from ..scene import Scene, check_dt, param
 from ..scene import Simulation as BaseSimulation
 
 # {{{ records (clkernels/include/space_colonization.h)
@@ -303,14 +303,12 @@ class GrowthSimulation(BaseSimulation):
                 self.last_growth_step = self.steps
         self.grow(dt)
 
-    def step(self, dt: float | None = None) -> None:
-        dt = check_dt(dt, self.default_dt)
+    def _step(self, dt: float) -> None:
         p = self.params
         if self.frame_index % p.frame == 0:  # book: every `frame` frames, `iterations` steps
             for _ in range(p.iterations):
                 self.book_step(dt)
         self.frame_index += 1
-        self._advance(dt)
 
     # {{{ state
 
@@ -660,6 +658,7 @@ SCENES = [
         "GPU space colonization: a tree grows through a sphere of attraction points (vol.4 ch.1)",
         preview={"steps": 240},
         interactive={"side": 20},
+        animation=Animation("the branches grow from the seeds through the attraction cloud", every=3, start=12),
     ),
     Scene(
         "space_colonization_tubes",

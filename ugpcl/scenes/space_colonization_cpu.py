@@ -24,7 +24,7 @@ from ..geometry import space_colonization_ref as ref
 from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
 from ..scene import Params as BaseParams
-from ..scene import Scene, check_dt, param
+from ..scene import PreviewCheck, Scene, param
 from ..scene import Simulation as BaseSimulation
 
 CROWN_CLOUDS = ((75.0, 50.0), (90.0, 75.0), (100.0, 90.0))
@@ -137,10 +137,8 @@ class Simulation(BaseSimulation):
             )
             self.tree.add_points(roots, clear=p.clear_leftovers)
 
-    def step(self, dt: float | None = None) -> None:
-        dt = check_dt(dt, self.default_dt)
+    def _step(self, dt: float) -> None:
         self.do_iteration()
-        self._advance(dt)
 
     def state(self) -> dict[str, np.ndarray]:
         return {
@@ -179,5 +177,6 @@ SCENES = [
         Simulation,
         "The blog's CPU space colonization: crown, then roots (vol.4 ch.1 + B. Olij 2014)",
         preview={"steps": 300},
+        preview_check=PreviewCheck(min_subject=0.02, sparse="thin branches and their node points"),
     ),
 ]

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geometry import skinned_figure
-from ..scene import ParamError, Scene, check_dt, param
+from ..scene import ParamError, PreviewCheck, Scene, param
 from .space_colonization import GrowthParams, GrowthSimulation
 
 # {{{ records (clkernels/include/space_colonization.h)
@@ -181,9 +181,8 @@ class Simulation(GrowthSimulation):
         """Bone world matrices (B, 4, 4) at the current clip time."""
         return self.figure.pose(self.anim_time)
 
-    def step(self, dt: float | None = None) -> None:
-        dt = check_dt(dt, self.default_dt)
-        super().step(dt)  # growth, in bind space
+    def _step(self, dt: float) -> None:
+        super()._step(dt)  # growth, in bind space
         if self.params.animate:
             self.anim_time += dt * self.params.anim_speed
         self.animate()
@@ -218,5 +217,6 @@ SCENES = [
         defaults={"influence_distance": 1.91, "growth_distance": 0.573, "kill_distance": 0.398, "tube_radius": 0.0053},
         preview={"steps": 300},
         interactive={"resolution": 80},
+        preview_check=PreviewCheck(fills_frame="the floor runs to the horizon"),
     ),
 ]

@@ -37,12 +37,12 @@ import numpy as np
 import pyopencl.array as cla
 import pyopencl.cltypes as cltypes
 
-from ..benchmark import seconds_per_call, seconds_per_step
+from ..bench.timing import seconds_per_call, seconds_per_step
 from ..buffers import PingPong, put
 from ..resources import Allocation
 from ..runtime import fitted_shape, round_up
+from ..scene import Animation, Scene, param
 from ..scene import Params as BaseParams
-from ..scene import Scene, check_dt, param
 from ..scene import Simulation as BaseSimulation
 
 STEM = "stable_fluids_2d"
@@ -459,8 +459,7 @@ class Simulation(StripSweeps, BaseSimulation):
         else:
             self.advect_density(dt)
 
-    def step(self, dt: float | None = None) -> None:
-        dt = check_dt(dt, self.default_dt)
+    def _step(self, dt: float) -> None:
         brush = self._take_brush()
         self.last_brush = brush
         if brush is not None:
@@ -469,7 +468,6 @@ class Simulation(StripSweeps, BaseSimulation):
             self.velocity_step(dt, brush is not None)
         self.density_step(dt, brush is not None)
         self.draw()
-        self._advance(dt)
 
     # {{{ state
 
@@ -628,5 +626,6 @@ SCENES = [
         "Stable fluids in 2D: ink painted by a brush, black on white (vol.1 ch.4)",
         view="View",
         preview=PREVIEW,
+        animation=Animation("the scripted circle stroke stirs the ink round", every=2),
     )
 ]

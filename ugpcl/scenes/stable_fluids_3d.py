@@ -36,12 +36,12 @@ from dataclasses import dataclass
 import numpy as np
 import pyopencl.cltypes as cltypes
 
-from ..benchmark import seconds_per_call, seconds_per_step
+from ..bench.timing import seconds_per_call, seconds_per_step
 from ..buffers import PingPong, put
 from ..resources import Allocation
 from ..runtime import fitted_shape, round_up
+from ..scene import Animation, Scene, param
 from ..scene import Params as BaseParams
-from ..scene import Scene, check_dt, param
 from ..scene import Simulation as BaseSimulation
 from .stable_fluids_2d import JACOBI_BYTES_PER_CELL, StripSweeps
 
@@ -405,8 +405,7 @@ class Simulation(StripSweeps, BaseSimulation):
         else:
             self.advect_density(dt)
 
-    def step(self, dt: float | None = None) -> None:
-        dt = check_dt(dt, self.default_dt)
+    def _step(self, dt: float) -> None:
         source = self.source_active()
         if source and not self.external_source:
             self.add_source_brush3d()
@@ -414,7 +413,6 @@ class Simulation(StripSweeps, BaseSimulation):
             self.velocity_step(dt, source)
         self.density_step(dt, source)
         self.draw()
-        self._advance(dt)
 
     # {{{ state
 
@@ -561,5 +559,11 @@ SCENES = [
             "emitter_direction": (0.4, 1.0, 0.0),
         },
         interactive={"width": 40, "height": 40, "depth": 40},
+        animation=Animation(
+            "the plume rising from the emitter while the camera swings (the volume reads better turning)",
+            every=5,
+            start=20,
+            swing=25.0,
+        ),
     )
 ]

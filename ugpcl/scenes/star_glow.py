@@ -27,11 +27,11 @@ import numpy as np
 import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
-from ..benchmark import seconds_per_step
+from ..bench.timing import seconds_per_step
 from ..buffers import PingPong
 from ..resources import Allocation
 from ..runtime import round_up
-from ..scene import ParamError, Scene, check_dt, param
+from ..scene import Animation, ParamError, PreviewCheck, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
 
@@ -235,10 +235,11 @@ class Simulation(BaseSimulation):
         size = (round_up(w, LOCAL[0]), round_up(h, LOCAL[1]))
         return (size, LOCAL) if depth is None else ((*size, depth), (*LOCAL, 1))
 
-    def demo_scene(self) -> None:
-        """DemoScene: the spheres at the current time, lit, into src (not in the book)."""
+    def demo_scene(self, time: float | None = None) -> None:
+        """DemoScene: the spheres at ``time`` (default: now), lit, into src (not in the book)."""
         p = self.params
-        spheres, albedo = demo_spheres(p.spheres, self.seed, self.time, self.W / self.H)
+        time = self.time if time is None else time
+        spheres, albedo = demo_spheres(p.spheres, self.seed, time, self.W / self.H)
         to_light = to_light_direction()
         self.program.kernel("DemoScene")(
             *self._grid(self.W, self.H),
@@ -383,16 +384,14 @@ class Simulation(BaseSimulation):
         if self.params.save_streaks:  # the fused pass keeps no streaks: run the last pass once more to show them
             self.streak_all_directions(source, self.streaks, stride, last)
 
-    def frame(self) -> None:
-        """One frame: the demo's source at the current time (an image input stays), then StarGlow."""
+    def frame(self, time: float | None = None) -> None:
+        """One frame: the demo's source at ``time`` (default: now; an image input stays), then StarGlow."""
         if self.demo:
-            self.demo_scene()
+            self.demo_scene(time)
         self.star_glow()
 
-    def step(self, dt: float | None = None) -> None:
-        dt = check_dt(dt, self.default_dt)
-        self._advance(dt)
-        self.frame()
+    def _step(self, dt: float) -> None:
+        self.frame(self.time + dt)  # the frame at the end of this step
 
     def images(self) -> dict[str, np.ndarray]:
         """Every image in GL row order (row 0 = bottom), as the kernels see them."""
@@ -541,5 +540,7 @@ SCENES = [
         },
         preview=PREVIEW,
         interactive={"width": 480, "height": 270},
+        animation=Animation("the demo spheres fall and their star streaks follow the highlights", every=2),
+        preview_check=PreviewCheck(fills_frame="a field of stars all around the camera"),
     )
 ]

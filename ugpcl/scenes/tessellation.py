@@ -24,12 +24,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..benchmark import seconds_per_step
+from ..bench.timing import seconds_per_step
 from ..geometry.mesh import Mesh, vertex_normals
 from ..geometry.mesh_io import write_mesh
 from ..geometry.transforms import euler_matrix, perspective
+from ..scene import Animation, PreviewCheck, Scene, param
 from ..scene import Params as BaseParams
-from ..scene import Scene, check_dt, param
 from ..scene import Simulation as BaseSimulation
 from .stable_fluids_2d import STROKES
 from .stable_fluids_2d import Params as FluidParams
@@ -300,13 +300,11 @@ class Simulation(BaseSimulation):
     def restart_stroke(self) -> None:
         self.fluid.restart_stroke()
 
-    def step(self, dt: float | None = None) -> None:
-        dt = check_dt(dt, self.default_dt)
+    def _step(self, dt: float) -> None:
         self.fluid.step(dt)
         brush = self.fluid.last_brush
         self.stroke_uv.append(brush[:2] if brush else (math.nan, math.nan))
         self.stroke_vel.append(brush[2:] if brush else (math.nan, math.nan))
-        self._advance(dt)
 
     # {{{ state
 
@@ -442,5 +440,9 @@ SCENES = [
         "Tessellation + displacement: a plane raised by a painted 2D fluid (vol.4 ch.6)",
         view="View",
         preview={"steps": 240},
+        animation=Animation("the brush stroke pushes the displaced fluid surface round", every=3),
+        preview_check=PreviewCheck(
+            fills_frame="the tessellated height field, seen close, runs out of the frame's sides"
+        ),
     )
 ]

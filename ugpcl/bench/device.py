@@ -1,5 +1,5 @@
-"""Timing for ``ugpcl bench``: wall-clock seconds per step with the queue drained, never used in tests; and the
-device's own limits that throughputs are a share of.
+"""The device's own limits that ``ugpcl bench`` throughputs are a share of, and the benches of the device itself
+(``ugpcl bench copy``, ``peak``, ``launch``).
 
 A bench row may carry columns named ``... bytes/s`` (the least memory traffic its work needs, per second) or
 ``... flop/s`` (its stated flop count, per second); ``ugpcl bench`` then adds ``% copy bw`` (of the device-to-device
@@ -13,47 +13,14 @@ import time
 from dataclasses import dataclass
 
 
-def seconds_per_step(sim, min_seconds: float = 1.0, max_steps: int = 200, dt: float | None = None) -> float:
-    """Seconds per ``sim.step(dt)``: one warm-up step (kernel builds, first transfers), then repeat until
-    ``min_seconds`` have passed or ``max_steps`` ran, finishing the queue after each step."""
-    queue = sim.runtime.queue
-    sim.step(dt)
-    queue.finish()
-    steps, start = 0, time.perf_counter()
-    while steps < max_steps and (steps == 0 or time.perf_counter() - start < min_seconds):
-        sim.step(dt)
-        queue.finish()
-        steps += 1
-    return (time.perf_counter() - start) / steps
-
-
-def seconds_per_call(fn, queue, min_seconds: float = 0.5, max_calls: int = 1000, batch: int = 1) -> float:
-    """Seconds per ``fn()`` for kernels that are not a whole step (one warm-up call, not timed).
-
-    ``batch`` = how many calls run back to back before the queue is finished: 1 (default) times a call that
-    waits for its result, as a step's one-off kernel; K > 1 times a call inside a loop, as a Jacobi sweep of a
-    solve or a substep of a frame, where the host enqueues the next launch while the device runs the last and
-    one finish ends the loop (the finish's cost is shared by the K calls). Batches repeat until ``min_seconds``
-    have passed or ``max_calls`` calls ran (at least one batch); the result is the mean over every timed call."""
-    if batch < 1:
-        raise ValueError(f"batch must be >= 1, got {batch}")
-    fn()
-    queue.finish()
-    calls, start = 0, time.perf_counter()
-    while calls == 0 or (calls + batch <= max_calls and time.perf_counter() - start < min_seconds):
-        for _ in range(batch):
-            fn()
-        queue.finish()
-        calls += batch
-    return (time.perf_counter() - start) / calls
-
-
 def bench_launch(runtime, sizes=None) -> list[dict]:
-    """Host cost of one kernel launch (LaunchProbe: 3 buffers, 4 scalars, 256 work-items), per way of launching:
-    PyOpenCL's plain call `kernel(queue, gsize, lsize, *args)` (sets every argument every time), a bare
-    `enqueue_nd_range_kernel` with the arguments set once, and ugpcl's launch path (runtime.Kernel: buffers set once,
-    scalars from their bytes). host us/launch: time to enqueue; us/launch: with the device's work, the
-    queue finished at the end of each batch."""
+    """Host cost of one kernel launch (LaunchProbe: 3 buffers, 4 scalars, 256 work-items, two scalars new each
+    launch), per way of launching: PyOpenCL's plain call `kernel(queue, gsize, lsize, *args)` (sets every argument
+    every time); a bare `enqueue_nd_range_kernel` with the arguments set once (the floor: nothing set); the same
+    after setting the two new scalars from their bytes (the floor of a launch that changes them); and ugpcl's
+    launch path (runtime.Kernel: the declaration checked, unchanged objects not set again, numpy scalars of the
+    declared type set from their bytes). host us/launch: time to enqueue; us/launch: with the device's work, the
+    queue finished at the end of each batch; x bare and x bare + set: host time against those two floors."""
     import numpy as np
     import pyopencl as cl
 
@@ -63,6 +30,7 @@ def bench_launch(runtime, sizes=None) -> list[dict]:
     wrapper = runtime.program("probes").kernel("LaunchProbe")
     plain = cl.Kernel(wrapper.cl.program, "LaunchProbe")  # a second cl.Kernel: its arguments are its own
     fixed = (a.data, b.data, out.data, np.int32(n), np.float32(2.0))
+    set_bytes = getattr(plain, "_set_arg_buf", plain.set_arg)
 
     def plain_call(i):
         plain(queue, (n,), None, *fixed, np.float32(i), np.int32(0))
@@ -70,13 +38,23 @@ def bench_launch(runtime, sizes=None) -> list[dict]:
     def bare_enqueue(i):
         cl.enqueue_nd_range_kernel(queue, plain, (n,), None)
 
+    def bare_set_enqueue(i):
+        set_bytes(5, np.float32(i))
+        set_bytes(6, np.int32(0))
+        cl.enqueue_nd_range_kernel(queue, plain, (n,), None)
+
     def launch_path(i):
         wrapper((n,), None, *fixed, np.float32(i), np.int32(0))
 
+    ways = (
+        ("plain call", plain_call),
+        ("bare enqueue", bare_enqueue),
+        ("bare + set 2 scalars", bare_set_enqueue),
+        ("launch path", launch_path),
+    )
     rows = []
-    for name, launch in (("plain call", plain_call), ("bare enqueue", bare_enqueue), ("launch path", launch_path)):
-        if launch is bare_enqueue:
-            plain.set_args(*fixed, np.float32(0.0), np.int32(0))
+    for name, launch in ways:
+        plain.set_args(*fixed, np.float32(0.0), np.int32(0))
         host, total = [], []
         for _ in range(5):  # the best of five batches: the least disturbed by the rest of the machine
             queue.finish()
@@ -88,9 +66,10 @@ def bench_launch(runtime, sizes=None) -> list[dict]:
             host.append((enqueued - start) / batch)
             total.append((time.perf_counter() - start) / batch)
         rows.append({"launch": name, "host us/launch": min(host) * 1e6, "us/launch": min(total) * 1e6})
-    bare = rows[1]["host us/launch"]
+    bare, bare_set = rows[1]["host us/launch"], rows[2]["host us/launch"]
     for row in rows:
         row["x bare"] = row["host us/launch"] / bare
+        row["x bare + set"] = row["host us/launch"] / bare_set
     return rows
 
 
@@ -181,36 +160,6 @@ def bench_peak(runtime, sizes=None) -> list[dict]:
     """FP32 peak as measured: FmaProbe, 8 independent float4 FMA chains per work-item and nothing else, the best of
     five launches; compute-bound rows are a share of it. sizes: ignored."""
     return [{"probe": "FmaProbe", "TFLOP/s": fp32_rate(runtime) / 1e12}]
-
-
-def grid_pairs_2d(points, origin, cell_size: float, dims) -> tuple:
-    """The ordered pairs (i, j), i != j, that a 2D uniform-grid kernel visits (j in the 3x3 cells around i's cell,
-    cells clamped as grid.h's grid_cell_coord), as two index arrays: a host count of a grid kernel's pair work for
-    the flop columns of a bench (with cell_size >= the radius they hold every pair within it)."""
-    import numpy as np
-
-    nx, ny = int(dims[0]), int(dims[1])
-    xy = np.asarray(points, np.float64)[:, :2]
-    c = np.floor((xy - np.asarray(origin, np.float64)[:2]) / cell_size)
-    c = np.clip(np.nan_to_num(c), 0, [nx - 1, ny - 1]).astype(np.int64)
-    cell = c[:, 1] * nx + c[:, 0]
-    order = np.argsort(cell, kind="stable")
-    counts = np.bincount(cell, minlength=nx * ny)
-    start = np.cumsum(counts) - counts
-    pairs_i, pairs_j = [], []
-    for dy in (-1, 0, 1):
-        for dx in (-1, 0, 1):
-            cx, cy = c[:, 0] + dx, c[:, 1] + dy
-            inside = (cx >= 0) & (cx < nx) & (cy >= 0) & (cy < ny)
-            items, neighbour = np.nonzero(inside)[0], cy[inside] * nx + cx[inside]
-            n = counts[neighbour]
-            first = np.repeat(start[neighbour], n)
-            rank = np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)  # 0 .. n - 1 within each neighbour cell
-            pairs_i.append(np.repeat(items, n))
-            pairs_j.append(order[first + rank])
-    i, j = np.concatenate(pairs_i), np.concatenate(pairs_j)
-    keep = i != j
-    return i[keep], j[keep]
 
 
 def with_shares(rows: list[dict], limits: DeviceLimits) -> list[dict]:
