@@ -29,7 +29,7 @@ import pyopencl as cl
 
 from . import __version__, resources
 from .geometry.mesh_io import MESH_SUFFIXES
-from .registry import get, modules, scenes
+from .registry import get, scenes
 from .runtime import BuildError, DeviceError, Runtime, all_devices
 from .scene import ParamError, Scene, Simulation, check_dt
 

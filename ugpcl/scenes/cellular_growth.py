@@ -311,8 +311,9 @@ class ParticleSimulation(BaseSimulation):
             self.dividable.items.data,
         )
 
-    def divide_particles(self, max_divide_count: int | None = None) -> int:
-        """DivideParticles: min(dividable, max_divide_count, pool) cells split in two; returns how many."""
+    def divide_particles(self, max_divide_count: int | None = None, time: float | None = None) -> int:
+        """DivideParticles: min(dividable, max_divide_count, pool) cells split in two at ``time`` (default: now);
+        returns how many."""
         wanted = self.params.max_divide_count if max_divide_count is None else max_divide_count
         n = min(self.dividable.count(), wanted)  # book: CopyPoolSize(dividablePoolBuffer)
         n = min(self.particle_pool.count(), n)  # book: CopyPoolSize(poolBuffer)
@@ -329,7 +330,7 @@ class ParticleSimulation(BaseSimulation):
             self.dividable.items.data,
             self.faults.data,
             np.int32(n),
-            self.clock(),
+            self.clock(time),
         )
         return n
 
@@ -347,10 +348,11 @@ class ParticleSimulation(BaseSimulation):
 
     # }}}
 
-    def divide(self) -> int:
-        """The book's Divide(): collect the dividable cells, split up to max_divide_count; returns the splits."""
+    def divide(self, time: float | None = None) -> int:
+        """The book's Divide() at ``time`` (default: now): collect the dividable cells, split up to
+        max_divide_count; returns the splits."""
         self.get_dividable_particles()
-        made = self.divide_particles()
+        made = self.divide_particles(time=time)
         self.divides += 1
         return made
 
@@ -367,7 +369,7 @@ class ParticleSimulation(BaseSimulation):
         """IDivider: one Divide after the step in which the clock reached the next tick (at most one per step);
         ``time`` is the clock at the end of the step."""
         if time + 1e-9 >= self.next_divide:
-            self.divide()
+            self.divide(time)
             self.next_divide = max(self.next_divide + self.params.divide_interval, time)
 
     def _step(self, dt: float) -> None:
@@ -504,7 +506,7 @@ class Simulation(ParticleSimulation):
             np.int32(self.params.max_link),
         )
 
-    def divide_unconnected_particles(self) -> None:
+    def divide_unconnected_particles(self, time: float | None = None) -> None:
         """DivideUnconnectedParticles over every slot: each live cell without links splits and links to its child.
         variant=fixed: at most min(particle pool, edge pool) of them, parents read from a snapshot."""
         q = self.runtime.queue
@@ -533,10 +535,12 @@ class Simulation(ParticleSimulation):
             self.tickets.data,
             np.int32(limit),
             self.faults.data,
-            self.clock(),
+            self.clock(time),
         )
 
-    def _divide_edges(self, name: str, dividable_edges: int, max_divide_count: int | None = None) -> int:
+    def _divide_edges(
+        self, name: str, dividable_edges: int, max_divide_count: int | None = None, time: float | None = None
+    ) -> int:
         """The book's DivideEdgesKernel: min(dividable, max, particle pool, edge pool) work-items of ``name``."""
         p = self.params
         n = min(dividable_edges, p.max_divide_count if max_divide_count is None else max_divide_count)
@@ -561,17 +565,17 @@ class Simulation(ParticleSimulation):
             self.dividable.items.data,
             self.faults.data,
             np.int32(n),
-            self.clock(),
+            self.clock(time),
         )
         return n
 
-    def divide_edges_closed(self, dividable_edges: int, max_divide_count: int | None = None) -> int:
+    def divide_edges_closed(self, dividable_edges: int, max_divide_count: int | None = None, time=None) -> int:
         """DivideEdgesClosed: a child inserted into each dividable edge (or a triangle); returns the splits."""
-        return self._divide_edges("DivideEdgesClosed", dividable_edges, max_divide_count)
+        return self._divide_edges("DivideEdgesClosed", dividable_edges, max_divide_count, time)
 
-    def divide_edges_branch(self, dividable_edges: int, max_divide_count: int | None = None) -> int:
+    def divide_edges_branch(self, dividable_edges: int, max_divide_count: int | None = None, time=None) -> int:
         """DivideEdgesBranch: a child hung on the less-linked end of each dividable edge; returns the splits."""
-        return self._divide_edges("DivideEdgesBranch", dividable_edges, max_divide_count)
+        return self._divide_edges("DivideEdgesBranch", dividable_edges, max_divide_count, time)
 
     def reset_edges(self) -> None:
         """ResetEdges: every live edge dies and its index goes back to the edge pool."""
@@ -587,18 +591,18 @@ class Simulation(ParticleSimulation):
 
     # }}}
 
-    def divide(self) -> int:
-        """The book's Divide(): split dividable edges in the pattern, or lone cells when no edge is dividable.
-        Returns the edge splits dispatched (0 after DivideUnconnectedParticles)."""
+    def divide(self, time: float | None = None) -> int:
+        """The book's Divide() at ``time`` (default: now): split dividable edges in the pattern, or lone cells when
+        no edge is dividable. Returns the edge splits dispatched (0 after DivideUnconnectedParticles)."""
         self.get_dividable_edges()
         dividable_edges = self.dividable.count()  # book: CopyPoolSize(dividablePoolBuffer)
         self.divides += 1
         if dividable_edges == 0:
-            self.divide_unconnected_particles()
+            self.divide_unconnected_particles(time)
             return 0
         if self.params.pattern == "closed":
-            return self.divide_edges_closed(dividable_edges)
-        return self.divide_edges_branch(dividable_edges)
+            return self.divide_edges_closed(dividable_edges, time=time)
+        return self.divide_edges_branch(dividable_edges, time=time)
 
     def _step(self, dt: float) -> None:
         point = self._emitting()
