@@ -67,9 +67,6 @@ class Pool:
             cl.enqueue_copy(self.runtime.queue, out, self.items.data)
         return out
 
-    def __len__(self) -> int:
-        return self.count()
-
 
 class PingPong:
     """Two buffers (or images) for kernels that read neighbours they also write: read ``.read``, write
