@@ -29,7 +29,6 @@ book"). A scripted ``stroke`` replaces the mouse headless.
 
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import dataclass
 
@@ -37,10 +36,9 @@ import numpy as np
 import pyopencl.array as cla
 import pyopencl.cltypes as cltypes
 
-from ..bench.timing import seconds_per_call, seconds_per_step
 from ..buffers import PingPong, put
 from ..resources import Allocation
-from ..runtime import fitted_shape, round_up
+from ..runtime import fitted_shape
 from ..scene import Animation, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
@@ -71,10 +69,6 @@ KERNELS = (
 )
 """The kernels of stable_fluids_2d.cl in host call order (its header's list); the last three only for set_boundary_*.
 ProjectStep2Rows is ProjectStep2 in strips (sweep_kernel), built for the fixed variant only."""
-LOCAL_SIZE_STREAMING = (64, 4)
-"""A work-group shape for large grids on GPUs (`--set local_size=64,4`): on the H100 a 4096^2 ProjectStep2 sweep takes
-84.8 us with it against 103.5 us with the book's 32 x 32 (more, smaller groups in flight; rows of 256 bytes). The
-other grid kernels keep this shape; the fixed variant's sweeps run ProjectStep2Rows on GPUs."""
 ROWS_PER_ITEM = 2
 """Rows of the 4-cell strip one work-item of ProjectStep2Rows sweeps (its ROWS define)."""
 ROWS_LOCAL = (64, 2)
@@ -224,31 +218,32 @@ class Simulation(StripSweeps, BaseSimulation):
     # {{{ programs and launches
 
     def _configure(self) -> None:
-        """Work-group shape, global size and kernels for the current local_size and variant (both live). Called when
+        """Work-group shape, launch shapes and kernels for the current local_size and variant (both live). Called when
         ``params`` is a new object (``update`` replaces it); a pair seen before reuses the runtime's built program."""
         p = self.params
         key = (p.local_size, p.variant)
         if self._config_key != key:
             device = self.runtime.device
-            size = self._local = fitted_shape(p.local_size, device)
-            grid = (round_up(self.w, size[0]), round_up(self.h, size[1]))
-            # the kernels that set the walls themselves: rows past the grid hold one work-item per wall cell
+            size = self._local = fitted_shape(p.local_size, device)  # the kernels' reqd_work_group_size
+            # the kernels that set the walls themselves: rows of work-groups past the grid's, as many as the wall
+            # cells fill (one work-item per wall cell)
             walls = 2 * self.w + 2 * self.h - 4
             wall_groups = -(-walls // (size[0] * size[1]))  # ceil
-            wall_rows = -(-wall_groups // (grid[0] // size[0]))  # rows of work-groups the wall cells fill
-            with_walls = (grid[0], grid[1] + wall_rows * size[1])
+            per_row = -(-self.w // size[0])  # work-groups in a row of the grid
+            wall_rows = -(-wall_groups // per_row)  # rows of work-groups the wall cells fill
+            with_walls = (self.w, self.h + wall_rows * size[1])
             self._program = self.runtime.program(
                 STEM, THREAD_X=size[0], THREAD_Y=size[1], BOOK_VARIANT=p.variant == "book", ROWS=ROWS_PER_ITEM
             )
-            self._launches = {
-                name: (self._program.kernel(name), with_walls if name in SETS_WALLS else grid, self._local)
+            self._launches = {  # name: (kernel, work-items, work-group) of Kernel.over
+                name: (self._program.kernel(name), with_walls if name in SETS_WALLS else (self.w, self.h), size)
                 for name in KERNELS
-                if name != "ProjectStep2Rows"  # its own launch shape, below
+                if name != "ProjectStep2Rows" and not name.startswith("SetBoundary")  # their own shapes
             }
             if p.variant == "fixed" and self.w % 4 == 0:  # strips of 4 cells x ROWS_PER_ITEM rows, walls included
-                rows_local = fitted_shape(ROWS_LOCAL, device)
-                strips = (round_up(self.w // 4, rows_local[0]), round_up(-(-self.h // ROWS_PER_ITEM), rows_local[1]))
-                self._launches["ProjectStep2Rows"] = (self._program.kernel("ProjectStep2Rows"), strips, rows_local)
+                kernel = self._program.kernel("ProjectStep2Rows")
+                rows_local = fitted_shape(ROWS_LOCAL, device, kernel.work_group_size())
+                self._launches["ProjectStep2Rows"] = (kernel, (self.w // 4, -(-self.h // ROWS_PER_ITEM)), rows_local)
             self._config_key = key
         self._configured_for = p
 
@@ -268,15 +263,13 @@ class Simulation(StripSweeps, BaseSimulation):
         over its strips); ``args`` in the kernel's order (buffers, w, h, scalars)."""
         if self.params is not self._configured_for:
             self._configure()
-        kernel, size, local = self._launches[name]
-        kernel(size, local, *args)
+        kernel, shape, group = self._launches[name]
+        kernel.over(shape, group, *args)
 
     def _boundary(self, name: str, field: cla.Array, *args) -> None:
         """SetBoundary<name> on ``field`` (``args`` follow it: DivPositive's stride): one launch over the
         2(w-2) + 2(h-2) edge cells and the 4 corners."""
-        if self.params is not self._configured_for:
-            self._configure()
-        self._launches[f"SetBoundary{name}"][0](2 * self.w + 2 * self.h - 4, None, field, *args, *self.dims)
+        self.program.kernel(f"SetBoundary{name}")(2 * self.w + 2 * self.h - 4, None, field, *args, *self.dims)
 
     # }}}
 
@@ -564,53 +557,6 @@ def central_divergence(velocity: np.ndarray) -> np.ndarray:
 def kinetic_energy(velocity: np.ndarray) -> float:
     """0.5*|v|^2 averaged over the cells."""
     return float(0.5 * np.mean(np.sum(velocity.astype(np.float64) ** 2, axis=-1)))
-
-
-SWEEP_BATCH = 20
-"""Jacobi sweeps the bench runs back to back before it finishes the queue, as a solve of gs_iterations sweeps does."""
-
-
-JACOBI_BYTES_PER_CELL = 12
-"""A Jacobi sweep's least memory traffic per cell: read p and the divergence, write p (4 bytes each); the
-neighbours' p come from cache. The fixed variant's ProjectStep2 moves just that (the book's float4 prev: 32).
-The bench's ``% copy bw`` is this traffic's share of the device's copy bandwidth."""
-
-
-BENCH_SWEEPS = (("ProjectStep2", Params.local_size), ("ProjectStep2", LOCAL_SIZE_STREAMING), ("ProjectStep2Rows", None))
-"""The bench's sweep configurations: the book's one-cell kernel with its 32 x 32 groups and with 64 x 4, and the
-strips (ROWS_LOCAL)."""
-
-
-def bench(runtime, sizes=None) -> list[dict]:
-    """Per n x n grid (scene coefficients, circle stroke held, gs_iterations 2) and sweep configuration
-    (BENCH_SWEEPS; ``local`` = work-items, or strips of 4 x ROWS_PER_ITEM cells): ms per step (the whole Update: 2
-    diffusions, 2 projections, 2 advections, 22 launches, the queue finished after each step) and cell updates/s
-    (cells x steps/s); one Jacobi sweep of the pressure solve (one launch, walls included) in us, timed over 20
-    sweeps back to back and one finish as a solve runs them, as sweeps/s and cell updates/s, and as the least
-    traffic a sweep needs (JACOBI_BYTES_PER_CELL) per second."""
-    sizes = sizes or ([256, 512, 1024, 2048, 4096] if runtime.is_gpu else [256, 512, 1024])
-    rows = []
-    for n, (kernel, local_size) in itertools.product(sizes, BENCH_SWEEPS):
-        sim = Simulation(runtime, Params(width=n, height=n, stroke_frames=0, local_size=local_size or (32, 32)), seed=0)
-        sim.sweep_kernel = kernel
-        seconds = seconds_per_step(sim, min_seconds=1.0, max_steps=100)
-        sweep = seconds_per_call(
-            lambda sim=sim: sim.project_step2(1), runtime.queue, max_calls=50 * SWEEP_BATCH, batch=SWEEP_BATCH
-        )
-        rows.append(
-            {
-                "grid": f"{n}^2",
-                "sweep kernel": kernel,
-                "local": "x".join(map(str, sim.local_size if local_size else sim.rows_local_size)),
-                "ms/step": seconds * 1e3,
-                "cell updates/s": n * n / seconds,
-                "us/Jacobi sweep": sweep * 1e6,
-                "Jacobi iterations/s": 1.0 / sweep,
-                "Jacobi cell updates/s": n * n / sweep,
-                "Jacobi bytes/s": JACOBI_BYTES_PER_CELL * n * n / sweep,
-            }
-        )
-    return rows
 
 
 PREVIEW = {"steps": 200, "velocity_coef": 60.0, "density_coef": 8.0, "stroke_frames": 0}
