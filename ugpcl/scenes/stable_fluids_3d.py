@@ -36,14 +36,13 @@ from dataclasses import dataclass
 import numpy as np
 import pyopencl.cltypes as cltypes
 
-from ..bench.timing import seconds_per_call, seconds_per_step
 from ..buffers import PingPong, put
 from ..resources import Allocation
-from ..runtime import fitted_shape, round_up
+from ..runtime import fitted_shape
 from ..scene import Animation, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
-from .stable_fluids_2d import JACOBI_BYTES_PER_CELL, StripSweeps
+from .stable_fluids_2d import StripSweeps
 
 STEM = "stable_fluids_3d"
 MAX_CELLS = 1 << 25
@@ -158,18 +157,15 @@ class Simulation(StripSweeps, BaseSimulation):
         p, rt = self.params, self.runtime
         self.shape = (p.depth, p.height, p.width)  # numpy (D, H, W): row z*h + y, column x
         self.dims = (np.int32(p.width), np.int32(p.height), np.int32(p.depth))
-        self.local_size = fitted_shape(p.local_size, rt.device)
-        self.global_size = tuple(
-            round_up(n, t) for n, t in zip((p.width, p.height, p.depth), self.local_size, strict=True)
-        )
+        self.local_size = fitted_shape(p.local_size, rt.device)  # the kernels' reqd_work_group_size
         # SetBoundary*: one work-item per wall cell; the kernels that set the walls themselves get layers of
         # work-groups past the grid's along z, as many as the wall cells fill (stable_fluids_3d.cl, wall_item)
         walls = p.width * p.height * p.depth - (p.width - 2) * (p.height - 2) * (p.depth - 2)
         self._boundary_size = walls
         wall_groups = -(-walls // math.prod(self.local_size))  # ceil
-        per_layer = (self.global_size[0] // self.local_size[0]) * (self.global_size[1] // self.local_size[1])
+        per_layer = math.prod(-(-n // t) for n, t in zip((p.width, p.height), self.local_size[:2], strict=True))
         layers = -(-wall_groups // per_layer)
-        self._walls_size = (*self.global_size[:2], self.global_size[2] + layers * self.local_size[2])
+        self._walls_shape = (p.width, p.height, p.depth + layers * self.local_size[2])
         self.velocity = PingPong.zeros(rt, (*self.shape, 4), np.float32)  # (u, v, w, 0)
         self.density = PingPong.zeros(rt, self.shape, np.float32)
         self.prev = PingPong.zeros(rt, (*self.shape, 4), np.float32)
@@ -198,21 +194,17 @@ class Simulation(StripSweeps, BaseSimulation):
             self._program = self.runtime.program(
                 STEM, THREAD_X=tx, THREAD_Y=ty, THREAD_Z=tz, BOOK_VARIANT=book, ROWS=ROWS_PER_ITEM
             )
-            self._launches = {
-                name: (
-                    self._program.kernel(name),
-                    self._walls_size if name in SETS_WALLS else self.global_size,
-                    self.local_size,
-                )
+            grid = tuple(int(n) for n in self.dims)
+            self._launches = {  # name: (kernel, work-items, work-group) of Kernel.over
+                name: (self._program.kernel(name), self._walls_shape if name in SETS_WALLS else grid, self.local_size)
                 for name in KERNELS
-                if name != "ProjectStep2Rows"  # its own launch shape, below
+                if name != "ProjectStep2Rows" and not name.startswith("SetBoundary")  # their own shapes
             }
-            w, h, d = (int(v) for v in self.dims)
+            w, h, d = grid
             if not book and w % 4 == 0:  # strips of 4 x 1 x ROWS_PER_ITEM cells, walls included
-                local = fitted_shape(ROWS_LOCAL, self.runtime.device)
-                strips = (w // 4, h, -(-d // ROWS_PER_ITEM))
-                size = tuple(round_up(n, t) for n, t in zip(strips, local, strict=True))
-                self._launches["ProjectStep2Rows"] = (self._program.kernel("ProjectStep2Rows"), size, local)
+                kernel = self._program.kernel("ProjectStep2Rows")
+                local = fitted_shape(ROWS_LOCAL, self.runtime.device, kernel.work_group_size())
+                self._launches["ProjectStep2Rows"] = (kernel, (w // 4, h, -(-d // ROWS_PER_ITEM)), local)
             self._built_for = book
         self._configured_for = self.params
 
@@ -221,15 +213,13 @@ class Simulation(StripSweeps, BaseSimulation):
         over its strips); ``args`` in the kernel's order (buffers, w, h, d, scalars)."""
         if self.params is not self._configured_for:
             self._configure()
-        kernel, size, local = self._launches[name]
-        kernel(size, local, *args)
+        kernel, shape, group = self._launches[name]
+        kernel.over(shape, group, *args)
 
     def _boundary(self, name: str, field, *args) -> None:
         """SetBoundary<name> on ``field`` (``args`` follow it: P's stride): one launch, one work-item per wall cell
         (faces, edges and corners)."""
-        if self.params is not self._configured_for:
-            self._configure()
-        self._launches[f"SetBoundary{name}"][0](self._boundary_size, None, field, *args, *self.dims)
+        self.program.kernel(f"SetBoundary{name}")(self._boundary_size, None, field, *args, *self.dims)
 
     def _place_p(self) -> None:
         """Put p and the divergence where this variant's ProjectStep2/3 read them: the float fields (fixed) or prev.xy
@@ -497,45 +487,6 @@ def central_divergence(velocity: np.ndarray) -> np.ndarray:
         + (v[2:, 1:-1, 1:-1, 2] - v[:-2, 1:-1, 1:-1, 2])
     )
     return out
-
-
-SWEEP_BATCH = 20
-"""Jacobi sweeps the bench runs back to back before it finishes the queue, as a solve of gs_iterations sweeps does."""
-
-
-def bench(runtime, sizes=None) -> list[dict]:
-    """Per grid n^3, sweep kernel (ProjectStep2 in the book's work-groups, ProjectStep2Rows in its strips) and Jacobi
-    sweeps per solve: ms per step (the whole Update: 2 diffusions, 2 projections, 2 advections, the queue finished
-    after each step), cell updates/s (cells x steps/s), and one Jacobi sweep of the pressure solve (one launch, walls
-    included) in us, timed over 20 sweeps back to back and one finish as a solve runs them, as sweeps/s and cell
-    updates/s, and as the least traffic a sweep needs (stable_fluids_2d.JACOBI_BYTES_PER_CELL, what the fixed
-    variant's sweep moves; the book's float4 prev: 32) per second."""
-    sizes = sizes or ([64, 128, 256] if runtime.is_gpu else [64, 128])
-    rows = []
-    for n in sizes:
-        for kernel in ("ProjectStep2", "ProjectStep2Rows"):
-            for sweeps in (2, 20):
-                sim = Simulation(runtime, Params(width=n, height=n, depth=n, gs_iterations=sweeps), seed=0)
-                sim.sweep_kernel = kernel
-                seconds = seconds_per_step(sim, min_seconds=1.0, max_steps=50)
-                sweep = seconds_per_call(
-                    lambda sim=sim: sim.project_step2(1), runtime.queue, max_calls=10 * SWEEP_BATCH, batch=SWEEP_BATCH
-                )
-                cells = n**3
-                rows.append(
-                    {
-                        "grid": f"{n}^3",
-                        "sweep kernel": kernel,
-                        "gs_iterations": sweeps,
-                        "ms/step": seconds * 1e3,
-                        "cell updates/s": cells / seconds,
-                        "us/Jacobi sweep": sweep * 1e6,
-                        "Jacobi sweeps/s": 1.0 / sweep,
-                        "Jacobi cell updates/s": cells / sweep,
-                        "Jacobi bytes/s": JACOBI_BYTES_PER_CELL * cells / sweep,
-                    }
-                )
-    return rows
 
 
 SCENE_DEFAULTS = {"velocity_coef": 10.0}
