@@ -136,7 +136,8 @@ def test_star_glow_frame_bytes_follow_the_passes():
 
 
 def test_tessellation_frame_bytes_count_the_launches_of_a_frame(runtime):
-    from ugpcl.scenes.tessellation import Params, Simulation, frame_bytes
+    from ugpcl.bench.tessellation import frame_bytes
+    from ugpcl.scenes.tessellation import Params, Simulation
 
     sim = Simulation(runtime, Params(grid=32, variant="fixed", gs_iterations=2), seed=0)
     sim.step()  # the stroke is held from here on: every frame paints

@@ -11,10 +11,7 @@ import numpy as np
 import pytest
 from helpers import first_mismatch, foreground, linear_filter_error
 
-from ugpcl.registry import get
-from ugpcl.scenes.tessellation import (
-    Params,
-    Simulation,
+from ugpcl.geometry.tessellation import (
     displace_plane_grid,
     fractional_odd_triangles,
     frustum_side_planes,
@@ -24,6 +21,8 @@ from ugpcl.scenes.tessellation import (
     scene_camera,
     tess_factors,
 )
+from ugpcl.registry import get
+from ugpcl.scenes.tessellation import Params, Simulation
 
 DT = 1.0 / 60.0
 

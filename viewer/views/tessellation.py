@@ -6,7 +6,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from ugpcl.scenes.tessellation import (
+from ugpcl.geometry.tessellation import (
     CAMERA_POSITION,
     LIGHT_INTENSITY,
     PLANE_QUADS,
