@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from helpers import render_view, run_cli
 
-from ugpcl.geometry import space_colonization_ref as ref
+from ugpcl.geometry.space_colonization import hemisphere_cloud
 from ugpcl.registry import get
 from ugpcl.scenes.space_colonization_cpu import Params, Simulation
 
@@ -25,7 +25,7 @@ def descends_from(segments: np.ndarray, vertex: int, root: int) -> bool:
 def test_blog_points_are_in_their_shell(seed):
     rng = np.random.default_rng(seed)
     outer, inner, aspect, offset = 75.0, 50.0, 2.0, 30.0
-    p = ref.hemisphere_cloud(5000, outer, inner, aspect, offset, rng)
+    p = hemisphere_cloud(5000, outer, inner, aspect, offset, rng)
     assert (p[:, 1] >= offset).all()
     r = np.linalg.norm(np.column_stack([p[:, 0], (p[:, 1] - offset) / aspect, p[:, 2]]), axis=1)
     assert (r >= inner - 1e-9).all() and (r < outer).all()

@@ -29,8 +29,6 @@ out).
 
 from __future__ import annotations
 
-import math
-import time
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -39,7 +37,7 @@ import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
 from ..buffers import Pool
-from ..geometry import space_colonization_ref as ref
+from ..geometry import space_colonization as geo
 from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
 from ..grid import LOCAL_SIZE as GRID_LOCAL_SIZE
@@ -168,9 +166,6 @@ class GrowthSimulation(BaseSimulation):
         self.last_growth_step, self.last_connect = 0, 0
         self.book_step(0.0)
 
-    def _launch(self, name: str, n: int, *args) -> None:
-        self.program.kernel(name).over(n, LOCAL_SIZE, *args)
-
     def _nodes_changed(self) -> None:
         """Called when node records change (the sphere scene's node grid goes stale)."""
 
@@ -185,9 +180,9 @@ class GrowthSimulation(BaseSimulation):
     def setup(self) -> None:
         """Setup: every node slot into the pool, every node inactive."""
         self.node_pool.set_count(0)
-        self._launch(
-            "Setup",
+        self.program.kernel("Setup").over(
             self.capacity,
+            LOCAL_SIZE,
             self.nodes.data,
             np.int32(self.capacity),
             self.node_pool.counter.data,
@@ -200,9 +195,9 @@ class GrowthSimulation(BaseSimulation):
         seeds = np.ascontiguousarray(seeds, np.float32).reshape(-1, 3)
         buffer = self.runtime.to_device(seeds.reshape(-1))
         n = min(len(seeds), self.node_pool.count())  # never more consumers than free slots
-        self._launch(
-            "Seed",
+        self.program.kernel("Seed").over(
             n,
+            LOCAL_SIZE,
             buffer.data,
             np.int32(n),
             *self._seed_lookup_args(),
@@ -221,9 +216,9 @@ class GrowthSimulation(BaseSimulation):
     def attract(self) -> None:
         """Attract: the candidate counter is cleared, then every grown, pulled node appends one candidate."""
         self.candidates.set_count(0)
-        self._launch(
-            "Attract",
+        self.program.kernel("Attract").over(
             self.capacity,
+            LOCAL_SIZE,
             self.attractions.data,
             np.int32(self.attraction_count),
             self.nodes.data,
@@ -247,9 +242,9 @@ class GrowthSimulation(BaseSimulation):
         """Connect: min(free slots, candidates) work-items each turn a candidate into a node and an edge."""
         p = self.params
         connect_count = min(self.free_slots, self.candidates.count())  # book: Mathf.Min(nodesCount, CopyCount)
-        self._launch(
-            "Connect",
+        self.program.kernel("Connect").over(
             connect_count,
+            LOCAL_SIZE,
             self.nodes.data,
             self.node_pool.counter.data,
             self.node_pool.items.data,
@@ -273,9 +268,9 @@ class GrowthSimulation(BaseSimulation):
 
     def _attractions_to_nodes(self, kernel: str, radius: float) -> None:
         """Search and Remove: every active attraction visits every node slot within ``radius`` (the book's loops)."""
-        self._launch(
-            kernel,
+        self.program.kernel(kernel).over(
             self.attraction_count,
+            LOCAL_SIZE,
             self.attractions.data,
             np.int32(self.attraction_count),
             self.nodes.data,
@@ -286,7 +281,7 @@ class GrowthSimulation(BaseSimulation):
     def grow(self, dt: float) -> None:
         """Grow: t = saturate(t + dt * growth_speed * mass) for every active node."""
         dT = np.float32(dt * self.params.growth_speed)
-        self._launch("Grow", self.capacity, self.nodes.data, np.int32(self.capacity), dT)
+        self.program.kernel("Grow").over(self.capacity, LOCAL_SIZE, self.nodes.data, np.int32(self.capacity), dT)
 
     # }}}
 
@@ -382,7 +377,7 @@ class GrowthSimulation(BaseSimulation):
 
     def mesh(self) -> Mesh:
         """A closed capsule of tube_radius around every grown edge, as drawn: watertight, wound outwards."""
-        vertices, normals, triangles = ref.tube_mesh(*self.grown_segments(), self.params.tube_radius)
+        vertices, normals, triangles = geo.tube_mesh(*self.grown_segments(), self.params.tube_radius)
         return Mesh(vertices, triangles, normals)
 
     def export_mesh(self, path) -> None:
@@ -425,12 +420,12 @@ class Params(GrowthParams):
 
 def make_cloud(p: Params, rng: np.random.Generator) -> np.ndarray:
     if p.cloud == "sphere":
-        return ref.sphere_cloud(p.side, rng)
+        return geo.sphere_cloud(p.side, rng)
     if p.cloud == "box":
-        return ref.box_cloud(p.side, rng)
+        return geo.box_cloud(p.side, rng)
     # the blog's generator in cloud units: as many points as the sphere, a dome of radius 0.5 standing on y = -0.25
-    n = len(ref.sphere_cloud(p.side, np.random.default_rng(0)))
-    return ref.hemisphere_cloud(n, 0.5, 0.0, 1.0, -0.25, rng)
+    n = len(geo.sphere_cloud(p.side, np.random.default_rng(0)))
+    return geo.hemisphere_cloud(n, 0.5, 0.0, 1.0, -0.25, rng)
 
 
 class NodeGrid(UniformGrid):
@@ -517,9 +512,9 @@ class Simulation(GrowthSimulation):
         if self.grid_cell < self._grid_cell_size():
             self._sort_attractions_by_cell()
         grid = self.attraction_grid
-        self._launch(
-            "Attract_grid",
+        self.program.kernel("Attract_grid").over(
             self.capacity,
+            LOCAL_SIZE,
             self.attractions.data,
             self.nodes.data,
             np.int32(self.capacity),
@@ -537,7 +532,7 @@ class Simulation(GrowthSimulation):
         grid = self._node_grid()
         head = (self.attractions.data, np.int32(self.attraction_count), self.nodes.data)
         tail = (np.float32(radius), *grid.geometry_args(), *grid.search_args())
-        self._launch(f"{kernel}_grid", self.attraction_count, *head, *tail)
+        self.program.kernel(f"{kernel}_grid").over(self.attraction_count, LOCAL_SIZE, *head, *tail)
 
     # }}}
 
@@ -546,110 +541,6 @@ class Simulation(GrowthSimulation):
 
 
 # }}}
-
-# {{{ benchmark
-
-
-def sphere_count(side: int) -> int:
-    """Attractions of the book's sphere cloud of this side (the jitter never changes the count)."""
-    g = (np.arange(side) / (side - 1) - 0.5) ** 2
-    return int(((g[:, None, None] + g[None, :, None] + g[None, None, :]) < 0.25).sum())
-
-
-def side_for(size: int) -> int:
-    """The sphere side whose cloud holds the number of attractions nearest to `size` (about pi/6 side^3)."""
-    guess = round((6.0 * size / math.pi) ** (1.0 / 3.0))
-    return min(range(max(4, guess - 2), guess + 3), key=lambda side: abs(sphere_count(side) - size))
-
-
-def grow_fully(sim: Simulation, max_steps: int) -> tuple[int, float, int]:
-    """Step until nothing can grow any more: no free slot is left, or no node was made for as long as the slowest
-    node needs to mature. Returns (steps run, seconds, step of the last growth)."""
-    p = sim.params
-    patience = math.ceil(1.0 / (sim.default_dt * p.growth_speed * p.mass_min)) + 1
-    queue = sim.runtime.queue
-    queue.finish()
-    start = time.perf_counter()
-    while sim.steps < max_steps:
-        sim.step()
-        if sim.free_slots == 0 or sim.steps - sim.last_growth_step > patience:
-            break
-    queue.finish()
-    return sim.steps, time.perf_counter() - start, sim.last_growth_step
-
-
-PAIR_FLOPS = 9
-"""One attraction-node pair of Search or Remove (all pairs): the difference (3), its length (dot 5, sqrt 1). Flop
-convention of the benches: an FMA is 2, sqrt and a division 1 each, compares 0."""
-
-
-def all_pairs_tests(runtime, side: int) -> int:
-    """Pairs that the all-pairs Search and Remove test over a whole growth (grow_fully from the reset): per step
-    that runs them, active attractions x live nodes each (Remove stops at the first node within the kill distance:
-    counted as the whole loop, exact for the attractions that stay). Counted in an untimed replay of the grid
-    variant (the same tree), reading the attractions before each step."""
-    sim = Simulation(runtime, Params(side=side, search="grid"), seed=0)
-    book_step, tests = sim.book_step, 0
-
-    def counted(dt: float) -> None:
-        nonlocal tests
-        if sim.free_slots > 0:  # Search .. Remove run only then
-            tests += 2 * int(np.count_nonzero(sim.read_attractions()["active"])) * sim.live_nodes
-        book_step(dt)
-
-    sim.book_step = counted
-    grow_fully(sim, 3000)
-    return tests
-
-
-def bench(runtime, sizes=None) -> list[dict]:
-    """Space colonization (book scene values, sphere cloud, the default repeat guard so that growth ends): seconds
-    and steps until the tree is fully grown, steps/s over that growth, and the uniform grid's speed-up over the
-    book's all-pairs loops (all-pairs is skipped where one tree would take minutes). pair flop/s (all pairs):
-    PAIR_FLOPS x all_pairs_tests over the growth's seconds; the grid rows have "-": the pairs its 3x3x3 cells hold
-    change every step and are not counted on the host."""
-    sizes = sizes or ([4096, 16384, 65536, 262144] if runtime.is_gpu else [1736, 4096, 16384])
-    all_pairs_limit = 70000 if runtime.is_gpu else 20000
-    rows = []
-    for size in sizes:
-        side = side_for(size)
-        seconds = {}
-        for search in ("all_pairs", "grid"):
-            sim = Simulation(runtime, Params(side=side, search=search), seed=0)
-            if search == "all_pairs" and sim.attraction_count > all_pairs_limit:
-                rows.append(
-                    {
-                        "A": sim.attraction_count,
-                        "search": search,
-                        "steps": "-",
-                        "s to grow": "-",
-                        "steps/s": "-",
-                        "nodes": "-",
-                        "speed-up": "-",
-                        "pair flop/s": "-",
-                    }
-                )
-                continue
-            steps, secs, last = grow_fully(sim, 3000)
-            seconds[search] = secs
-            speed_up = seconds["all_pairs"] / secs if search == "grid" and "all_pairs" in seconds else "-"
-            rows.append(
-                {
-                    "A": sim.attraction_count,
-                    "search": search,
-                    "steps": last,
-                    "s to grow": secs,
-                    "steps/s": steps / secs,
-                    "nodes": sim.live_nodes,
-                    "speed-up": speed_up,
-                    "pair flop/s": PAIR_FLOPS * all_pairs_tests(runtime, side) / secs if search == "all_pairs" else "-",
-                }
-            )
-    return rows
-
-
-# }}}
-
 
 SCENES = [
     Scene(

@@ -3,7 +3,7 @@ Part 1", blog post, 2014: the CPU counterpart of Unity Graphics Programming vol.
 docs/chapters/12-space-colonization.md).
 
 No kernels: one ``step`` is one of the blog's doIteration, in numpy float64
-(``ugpcl.geometry.space_colonization_ref.BlogTree``): every attraction point compares its closest vertex with the
+(``ugpcl.geometry.space_colonization.BlogTree``): every attraction point compares its closest vertex with the
 vertices grown since the last iteration, points within the cut-off distance of their closest vertex die, and every
 vertex pulled by points within the max distance grows one normalised branch (plus the bias) towards their mean
 direction. Reset grows the trunk and appends the three crown clouds; when the crown stage ends the roots cloud is
@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry import space_colonization_ref as ref
+from ..geometry import space_colonization as geo
 from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
 from ..scene import Params as BaseParams
@@ -98,10 +98,10 @@ class Simulation(BaseSimulation):
     def _reset(self) -> None:
         p = self.params
         self.rng = np.random.default_rng(self.seed)
-        self.tree = ref.BlogTree()
+        self.tree = geo.BlogTree()
         self.tree.grow_branch(0, (0.0, p.trunk_height, 0.0))
         for count, (outer, inner) in zip(p.crown_points, CROWN_CLOUDS, strict=True):
-            self.tree.add_points(ref.hemisphere_cloud(count, outer, inner, p.aspect, p.offset_y, self.rng))
+            self.tree.add_points(geo.hemisphere_cloud(count, outer, inner, p.aspect, p.offset_y, self.rng))
         self.stage = 0
         self.stage_iterations = np.zeros(2, np.int32)
         self.stalled = np.zeros(2, bool)
@@ -132,7 +132,7 @@ class Simulation(BaseSimulation):
         self.stage += 1
         if self.stage == 1:  # the blog's second cloud: roots around the base
             self.root_stage_first_vertex = len(self.tree.vertices)
-            roots = ref.hemisphere_cloud(
+            roots = geo.hemisphere_cloud(
                 p.root_points, p.root_outer, p.root_inner, p.root_aspect, p.root_offset_y, self.rng
             )
             self.tree.add_points(roots, clear=p.clear_leftovers)

@@ -25,7 +25,7 @@ import numpy as np
 
 from ..geometry import skinned_figure
 from ..scene import ParamError, PreviewCheck, Scene, param
-from .space_colonization import GrowthParams, GrowthSimulation
+from .space_colonization import LOCAL_SIZE, GrowthParams, GrowthSimulation
 
 # {{{ records (clkernels/include/space_colonization.h)
 
@@ -144,9 +144,9 @@ class Simulation(GrowthSimulation):
         rt = self.runtime
         vertex_buffer = rt.to_device(np.ascontiguousarray(vertices, np.float32).reshape(-1))
         bone_buffer = rt.to_device(np.ascontiguousarray(bones, np.int32))
-        self._launch(
-            "SetupSkin",
+        self.program.kernel("SetupSkin").over(
             self.attraction_count,
+            LOCAL_SIZE,
             self.attractions.data,
             np.int32(self.attraction_count),
             vertex_buffer.data,
@@ -157,7 +157,9 @@ class Simulation(GrowthSimulation):
 
     def setup_attractions(self) -> None:
         """SetupAttractions: every attraction live again, nothing found (the cloud and its bones are kept)."""
-        self._launch("SetupAttractions", self.attraction_count, self.attractions.data, np.int32(self.attraction_count))
+        self.program.kernel("SetupAttractions").over(
+            self.attraction_count, LOCAL_SIZE, self.attractions.data, np.int32(self.attraction_count)
+        )
 
     def animate(self, bone_matrices: np.ndarray | None = None) -> None:
         """Animate: animated = (bone matrix @ bind pose) @ (position, 1) per live node, with the figure's pose at
@@ -165,9 +167,9 @@ class Simulation(GrowthSimulation):
         if bone_matrices is None:
             bone_matrices = self.bone_matrices()
         self.bone_matrix_buffer.set(np.ascontiguousarray(bone_matrices, np.float32).reshape(-1))
-        self._launch(
-            "Animate",
+        self.program.kernel("Animate").over(
             self.capacity,
+            LOCAL_SIZE,
             self.nodes.data,
             np.int32(self.capacity),
             self.bind_pose_buffer.data,
