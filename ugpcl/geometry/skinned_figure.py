@@ -16,10 +16,12 @@ package turned into a point cloud. Here:
   times U(radius, 2 radius) around an active sample, accepted in a filled, unsampled voxel with no sample closer
   than radius; samples outside the surface are then dropped (a voxel is filled by its centre, so its corners may
   poke out), which the winding-number test ``inside_mesh`` decides.
+* ``figure_cloud``: the three in a row, the figure's attraction cloud (cached: the book bakes it into an asset).
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -364,6 +366,18 @@ def poisson_volume(volume: Volume, rng: np.random.Generator, distance: float = 1
     points = samples[:count]
     v = np.floor((points - volume.origin) / unit).astype(int)
     return points[np.lexsort((v[:, 0], v[:, 1], v[:, 2]))]
+
+
+@functools.lru_cache(maxsize=4)
+def figure_cloud(resolution: int, sample_distance: float, tries: int, seed: int) -> tuple[np.ndarray, float]:
+    """Attraction points filling the procedural figure at rest (VolumeSampler: voxels, then Poisson samples, those
+    outside the surface dropped), and the voxel unit. Cached: the book bakes this into an asset once."""
+    figure = Figure()
+    vertices, triangles, _ = figure.mesh()
+    volume = voxelize(vertices, triangles, resolution)
+    points = poisson_volume(volume, np.random.default_rng(seed), sample_distance, tries)
+    inside = inside_mesh(points, vertices, triangles, figure.components())
+    return points[inside], volume.unit
 
 
 # }}}

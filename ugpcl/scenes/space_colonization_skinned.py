@@ -18,7 +18,6 @@ in the sphere scene (``--set repeat_guard=false`` is the book); the skinned kern
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -50,18 +49,6 @@ SKINNED_CANDIDATE_DTYPE = np.dtype([("position", "<f4", 3), ("node", "<i4"), ("b
 """Mirror of SkinnedCandidate (20 bytes)."""
 
 # }}}
-
-
-@functools.lru_cache(maxsize=4)
-def figure_cloud(resolution: int, sample_distance: float, tries: int, seed: int) -> np.ndarray:
-    """Attraction points filling the procedural figure at rest (VolumeSampler: voxels, then Poisson samples, those
-    outside the surface dropped), and the voxel unit. Cached: the book bakes this into an asset once."""
-    figure = skinned_figure.Figure()
-    vertices, triangles, _ = figure.mesh()
-    volume = skinned_figure.voxelize(vertices, triangles, resolution)
-    points = skinned_figure.poisson_volume(volume, np.random.default_rng(seed), sample_distance, tries)
-    inside = skinned_figure.inside_mesh(points, vertices, triangles, figure.components())
-    return points[inside], volume.unit
 
 
 @dataclass(frozen=True)
@@ -114,7 +101,7 @@ class Simulation(GrowthSimulation):
 
     def _build_figure(self, key) -> None:
         rt = self.runtime
-        cloud, self.voxel_unit = figure_cloud(*key)
+        cloud, self.voxel_unit = skinned_figure.figure_cloud(*key)
         if not len(cloud):
             raise ParamError(
                 f"resolution={key[0]} with sample_distance={key[1]} puts no attraction point inside the figure; "
