@@ -11,8 +11,9 @@ import pytest
 from helpers import first_mismatch, foreground
 
 from ugpcl.cli import main
+from ugpcl.geometry.cloth import grid_triangles, spring_pairs
 from ugpcl.registry import get
-from ugpcl.scenes.cloth import MAIN_SCENE, SIMULATION_KERNELS, Params, Simulation, grid_triangles, spring_pairs
+from ugpcl.scenes.cloth import MAIN_SCENE, SIMULATION_KERNELS, Params, Simulation
 
 # {{{ numpy float64 reference, written from the book's Kernels.compute listing
 
@@ -460,24 +461,17 @@ def test_same_params_same_device_is_bitwise_identical(runtime):
 # {{{ parameters
 
 
+# out-of-range values (every field of every scene) and the res[0]*res[1] limit: tests/test_params.py
 @pytest.mark.parametrize(
     "overrides, message",
     [
-        ({"res": (1, 64)}, "res must be in \\[2, 4096\\]"),
-        ({"res": (4096, 4096)}, "res\\[0\\]\\*res\\[1\\] must be <= 4194304, got res=\\(4096, 4096\\)"),
-        ({"substeps": 0}, "substeps must be in \\[1, 16\\], got 0"),
-        ({"substeps": 17}, "substeps must be in \\[1, 16\\]"),
-        ({"timestep": 0.0}, "timestep must be in \\(0.0, 0.1\\]"),
-        ({"rest_length": -1.0}, "rest_length must be in \\[0.0001, 10.0\\], got -1.0"),
-        ({"mass": 0.0}, "mass must be in \\[1e-06, 1000000.0\\], got 0.0"),
         ({"stiffness": float("nan")}, "stiffness must be a finite number"),
-        ({"damp": -0.5}, "damp must be in \\[0.0, 1000000.0\\], got -0.5"),
         ({"num_threads_xy": 3}, "num_threads_xy must be one of"),
         ({"variant": "x"}, "variant must be one of book\\|fixed"),
         ({"gravity": (0.0, -9.81)}, "gravity must be 3 numbers"),
     ],
 )
-def test_bad_parameters_name_the_field_and_range(overrides, message):
+def test_bad_parameters_name_the_field(overrides, message):
     with pytest.raises(ValueError, match=message):
         Params(**overrides)
 

@@ -128,11 +128,10 @@ def test_probe_ids_cover_the_grid(runtime, numthreads, groups):
 # {{{ parameters, view, Oclgrind
 
 
+# out-of-range values: tests/test_params.py, for every field of every scene
 @pytest.mark.parametrize(
     "overrides, message",
     [
-        ({"tex_width": 0}, "tex_width must be in \\[1, 16384\\], got 0"),
-        ({"groups": 65}, "groups must be in"),
         ({"use_images": "maybe"}, "use_images must be one of auto\\|image\\|buffer"),
         ({"local_size": (8, 8, 1)}, "local_size must be 2 numbers"),
     ],

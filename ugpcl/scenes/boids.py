@@ -20,9 +20,7 @@ import numpy as np
 import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
-from ..bench.timing import seconds_per_step
 from ..grid import UniformGrid
-from ..runtime import round_up
 from ..scene import Animation, PreviewCheck, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
@@ -129,18 +127,12 @@ class Simulation(BaseSimulation):
             grid = self._neighbour_grid()
             grid.build(self.boid_data, self.n, stride=BOID_DTYPE.itemsize // 4, offset=4)  # floats 4..6: position
             grid_args = (*grid.geometry_args(), *grid.search_args())
+        args = (self.boid_data.data, self.boid_force.data, np.int32(self.n), *self._rules(), *grid_args)
+        kernel = self.program.kernel(name)
         if name == "ForceCS_cpu":
-            launch = ((-(-self.n // CPU_LANES),), None)  # one work-item per CPU_LANES boids
+            kernel((-(-self.n // CPU_LANES),), None, *args)  # one work-item per CPU_LANES boids, any work-group
         else:
-            launch = ((round_up(self.n, self.block_size),), (self.block_size,) if name == "ForceCS" else None)
-        self.program.kernel(name)(
-            *launch,
-            self.boid_data.data,
-            self.boid_force.data,
-            np.int32(self.n),
-            *self._rules(),
-            *grid_args,
-        )
+            kernel.over(self.n, self.block_size, *args)
 
     def force_kernel(self) -> str:
         """The ForceCS kernel that the current variant runs on this device."""
@@ -163,9 +155,9 @@ class Simulation(BaseSimulation):
     def integrate_cs(self, dt: float) -> None:
         """IntegrateCS: wall force, velocity += force*dt (limited to max_speed), position += velocity*dt."""
         p = self.params
-        self.program.kernel("IntegrateCS")(
-            (round_up(self.n, self.block_size),),
-            (self.block_size,),
+        self.program.kernel("IntegrateCS").over(
+            self.n,
+            self.block_size,
             self.boid_data.data,
             self.boid_force.data,
             np.int32(self.n),
@@ -233,48 +225,6 @@ def inside_unit_sphere(rng: np.random.Generator, n: int) -> np.ndarray:
     direction = rng.normal(size=(n, 3))
     direction /= np.maximum(np.linalg.norm(direction, axis=1, keepdims=True), 1e-12)
     return direction * rng.random((n, 1)) ** (1.0 / 3.0)
-
-
-FLOCK_WARMUP_STEPS = 300
-"""Steps (dt 1/60) from the book's start before the "flocking" bench rows: the boids have spread through the box."""
-
-
-FLOPS_PER_PAIR = 21
-"""meet() in clkernels/boids.cl for a pair inside every radius: 3 subtractions (diff), 5 for dist², 1 reciprocal,
-3 multiplications and 9 additions into the three sums (compares and counts not counted)."""
-
-
-def bench(runtime, sizes=None) -> list[dict]:
-    """ms per step and pair interactions/s (N^2 per step; for the grid too, as the all-pairs work it replaces) for
-    each N and ForceCS variant, at the book's start (every boid within every radius of every other: the worst
-    case) and once the flock has spread out; at the start, FLOPS_PER_PAIR x N^2 per step as flop/s."""
-    sizes = sizes or ([16384, 65536] if runtime.is_gpu else [1024, 4096])
-    rows = []
-    for n in sizes:
-        sims = {v: Simulation(runtime, Params(max_object_num=n, variant=v), seed=0) for v in ("tiled", "naive", "grid")}
-        for phase in ("start", "flocking"):
-            if phase == "flocking":
-                for _ in range(FLOCK_WARMUP_STEPS):
-                    sims["tiled"].step()
-                state = sims["tiled"].state()
-                for variant in ("naive", "grid"):
-                    sims[variant].set_boids(state["position"], state["velocity"])
-            for variant, sim in sims.items():
-                seconds = seconds_per_step(sim, max_steps=50)
-                rows.append(
-                    {
-                        "N": n,
-                        "state": phase,
-                        "variant": variant,
-                        "kernel": sim.force_kernel(),
-                        "ms/step": seconds * 1e3,
-                        "interactions/s": n * n / seconds,
-                        "steps/s": 1.0 / seconds,
-                        # at the start every pair is inside every radius: meet() does all its work
-                        **({"pair flop/s": FLOPS_PER_PAIR * n * n / seconds} if phase == "start" else {}),
-                    }
-                )
-    return rows
 
 
 SCENES = [

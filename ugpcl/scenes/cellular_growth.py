@@ -38,7 +38,6 @@ import numpy as np
 import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
-from ..bench.timing import grid_pairs_2d, seconds_per_call, seconds_per_step
 from ..buffers import PingPong, Pool
 from ..grid import UniformGrid
 from ..scene import Animation, Scene, param
@@ -162,11 +161,6 @@ SPHERE_DEFAULTS = {
 # }}}
 
 
-def _launch(sim, name: str, n: int, *args) -> None:
-    """Run kernel ``name`` over n work-items in groups of GROUP_SIZE (nothing when n <= 0)."""
-    sim.program.kernel(name).over(n, GROUP_SIZE, *args)
-
-
 class ParticleSimulation(BaseSimulation):
     """CellularGrowthParticleOnly.cs: cells that grow, repel and divide; no edges."""
 
@@ -176,10 +170,14 @@ class ParticleSimulation(BaseSimulation):
 
     # {{{ setup
 
+    def __init__(self, runtime, params: ParticleParams | None = None, seed: int = 0):
+        self.count = 0  # no buffers yet: the first reset makes them, a reset of the same count reuses them
+        super().__init__(runtime, params, seed)
+
     def _reset(self) -> None:
         p, rt = self.params, self.runtime
         self.program = rt.program("cellular_growth", BOOK_TEXT=p.book_text)
-        if getattr(self, "count", None) == p.count:
+        if self.count == p.count:
             self.reset_particles()  # the R key: live slots back to the pool, no reallocation
             if self.has_edges:
                 self.reset_edges()
@@ -221,10 +219,9 @@ class ParticleSimulation(BaseSimulation):
     def init_particles(self) -> None:
         """InitParticles: every slot dead, every index appended to the particle pool."""
         self.particle_pool.set_count(0)
-        _launch(
-            self,
-            "InitParticles",
+        self.program.kernel("InitParticles").over(
             self.count,
+            GROUP_SIZE,
             self.particles.read.data,
             np.int32(self.count),
             self.particle_pool.counter.data,
@@ -237,10 +234,9 @@ class ParticleSimulation(BaseSimulation):
         n = max(0, min(emit_count, self.particle_pool.count()))  # book: CopyPoolSize(poolBuffer)
         if n <= 0:
             return 0
-        _launch(
-            self,
-            "EmitParticles",
+        self.program.kernel("EmitParticles").over(
             n,
+            GROUP_SIZE,
             self.particles.read.data,
             self.particle_pool.counter.data,
             self.particle_pool.items.data,
@@ -269,7 +265,7 @@ class ParticleSimulation(BaseSimulation):
             grid = self._neighbour_grid()
             args += [*grid.geometry_args(), *grid.search_args()]
             name = "UpdateParticles_grid"
-        _launch(self, name, self.count, *args)
+        self.program.kernel(name).over(self.count, GROUP_SIZE, *args)
         self.particles.swap()
 
     def _neighbour_grid(self) -> UniformGrid:
@@ -286,10 +282,9 @@ class ParticleSimulation(BaseSimulation):
             self.grid_points = self.runtime.empty(self.count, cltypes.float2)
             self.grid_parking = cltypes.make_float2(origin + 0.5 * cell, origin + 0.5 * cell)
             self.grid_key = (self.count, cell)
-        _launch(
-            self,
-            "ParticleGridPoints",
+        self.program.kernel("ParticleGridPoints").over(
             self.count,
+            GROUP_SIZE,
             self.particles.read.data,
             np.int32(self.count),
             self.grid_parking,
@@ -301,10 +296,9 @@ class ParticleSimulation(BaseSimulation):
     def get_dividable_particles(self) -> None:
         """GetDividableParticles: reset the dividable pool, append every live cell with radius >= 0.95 threshold."""
         self.dividable.set_count(0)  # book: dividablePoolBuffer.SetCounterValue(0)
-        _launch(
-            self,
-            "GetDividableParticles",
+        self.program.kernel("GetDividableParticles").over(
             self.count,
+            GROUP_SIZE,
             self.particles.read.data,
             np.int32(self.count),
             self.dividable.counter.data,
@@ -319,10 +313,9 @@ class ParticleSimulation(BaseSimulation):
         n = min(self.particle_pool.count(), n)  # book: CopyPoolSize(poolBuffer)
         if n <= 0:
             return 0
-        _launch(
-            self,
-            "DivideParticles",
+        self.program.kernel("DivideParticles").over(
             n,
+            GROUP_SIZE,
             self.particles.read.data,
             self.particle_pool.counter.data,
             self.particle_pool.items.data,
@@ -336,10 +329,9 @@ class ParticleSimulation(BaseSimulation):
 
     def reset_particles(self) -> None:
         """ResetParticles: every live cell dies and its index goes back to the pool."""
-        _launch(
-            self,
-            "ResetParticles",
+        self.program.kernel("ResetParticles").over(
             self.count,
+            GROUP_SIZE,
             self.particles.read.data,
             np.int32(self.count),
             self.particle_pool.counter.data,
@@ -465,10 +457,9 @@ class Simulation(ParticleSimulation):
     def init_edges(self) -> None:
         """InitEdges: every edge dead, every index appended to the edge pool."""
         self.edge_pool.set_count(0)
-        _launch(
-            self,
-            "InitEdges",
+        self.program.kernel("InitEdges").over(
             self.count,
+            GROUP_SIZE,
             self.edges.data,
             np.int32(self.count),
             self.edge_pool.counter.data,
@@ -477,10 +468,9 @@ class Simulation(ParticleSimulation):
 
     def update_edges(self) -> None:
         """UpdateEdges: each live edge's spring force."""
-        _launch(
-            self,
-            "UpdateEdges",
+        self.program.kernel("UpdateEdges").over(
             self.count,
+            GROUP_SIZE,
             self.particles.read.data,
             self.edges.data,
             np.int32(self.count),
@@ -489,15 +479,16 @@ class Simulation(ParticleSimulation):
 
     def spring_edges(self) -> None:
         """SpringEdges: every live cell adds -+force / links of its edges to its velocity (in place on Read)."""
-        _launch(self, "SpringEdges", self.count, self.particles.read.data, self.edges.data, np.int32(self.count))
+        self.program.kernel("SpringEdges").over(
+            self.count, GROUP_SIZE, self.particles.read.data, self.edges.data, np.int32(self.count)
+        )
 
     def get_dividable_edges(self) -> None:
         """GetDividableEdges: reset the dividable pool, append every live edge whose two cells may divide."""
         self.dividable.set_count(0)  # book: dividablePoolBuffer.SetCounterValue(0)
-        _launch(
-            self,
-            "GetDividableEdges",
+        self.program.kernel("GetDividableEdges").over(
             self.count,
+            GROUP_SIZE,
             self.particles.read.data,
             self.edges.data,
             np.int32(self.count),
@@ -524,10 +515,9 @@ class Simulation(ParticleSimulation):
             self.edge_pool.counter.data,
             self.edge_pool.items.data,
         )
-        _launch(
-            self,
-            "DivideUnconnectedParticles",
+        self.program.kernel("DivideUnconnectedParticles").over(
             self.count,
+            GROUP_SIZE,
             parents.data,
             self.particles.read.data,
             np.int32(self.count),
@@ -551,10 +541,9 @@ class Simulation(ParticleSimulation):
         n = min(edge_slots, n)
         if n <= 0:
             return 0
-        _launch(
-            self,
-            name,
+        self.program.kernel(name).over(
             n,
+            GROUP_SIZE,
             self.particles.read.data,
             self.particle_pool.counter.data,
             self.particle_pool.items.data,
@@ -579,10 +568,9 @@ class Simulation(ParticleSimulation):
 
     def reset_edges(self) -> None:
         """ResetEdges: every live edge dies and its index goes back to the edge pool."""
-        _launch(
-            self,
-            "ResetEdges",
+        self.program.kernel("ResetEdges").over(
             self.count,
+            GROUP_SIZE,
             self.edges.data,
             np.int32(self.count),
             self.edge_pool.counter.data,
@@ -613,88 +601,6 @@ class Simulation(ParticleSimulation):
             self.spring_edges()
             self.update_particles(dt)
         self._divide_if_due(self.time + dt)
-
-
-# {{{ benchmark
-
-
-def colony(count: int, spacing: float = 1.0, radius: float = 0.5, seed: int = 0) -> np.ndarray:
-    """``count`` live cells on a jittered hexagonal lattice (a grown colony: each touches about six others)."""
-    rng = np.random.default_rng(seed)
-    side = math.ceil(math.sqrt(count / 0.866)) + 1
-    i, j = np.meshgrid(np.arange(side), np.arange(side), indexing="ij")
-    points = np.column_stack([(i + 0.5 * (j % 2)).ravel() * spacing, j.ravel() * spacing * 0.866])
-    points = points[np.argsort(np.linalg.norm(points - points.mean(axis=0), axis=1), kind="stable")][:count]
-    records = np.zeros(count, PARTICLE_DTYPE)
-    records["position"] = points - points.mean(axis=0) + rng.uniform(-0.05, 0.05, (count, 2)) * spacing
-    records["radius"] = radius
-    records["threshold"] = 1.0
-    records["alive"] = 1
-    return records
-
-
-REPEL_TEST_FLOPS = 8
-"""repel() for a live pair, up to its contact test: dir = p - other (2), length(dir) (dot 3, sqrt 1) and the contact
-distance (r_a + r_b) * repulsion (2). Flop convention of the benches: an FMA is 2, sqrt and a division 1 each."""
-
-REPEL_CONTACT_FLOPS = 11
-"""What a pair in contact adds: normalize(dir) (dot 3, sqrt 1, 2 divisions), (r - l) (1), the product (2) and the
-velocity sum (2); the rare wobble of coincident cells is not counted."""
-
-
-def repel_flops(records: np.ndarray, repulsion: float, grid, all_pairs: bool) -> float:
-    """Flops of one UpdateParticles (or UpdateParticles_grid) pass over live cells ``records``: REPEL_TEST_FLOPS per
-    pair tested (all count(count-1), or the live pairs in the 3x3 cells of ``grid``, a UniformGrid) and
-    REPEL_CONTACT_FLOPS per pair in contact (counted through a host grid of cells of the largest contact distance)."""
-    live = records[records["alive"] != 0]
-    xy = live["position"].astype(np.float64)
-    cell = 2.0 * MAX_RADIUS * repulsion * GRID_CELL_MARGIN
-    low = xy.min(axis=0) - cell
-    dims = np.ceil((xy.max(axis=0) - low) / cell).astype(int) + 2
-    i, j = grid_pairs_2d(xy, low, cell, dims)
-    d = np.linalg.norm(xy[i] - xy[j], axis=1)
-    contacts = int(np.count_nonzero(d < (live["radius"][i] + live["radius"][j]) * np.float64(repulsion)))
-    if all_pairs:
-        tests = len(xy) * (len(xy) - 1)
-    else:
-        tests = len(grid_pairs_2d(xy, grid.origin, grid.cell_size, grid.dims)[0])
-    return REPEL_TEST_FLOPS * tests + REPEL_CONTACT_FLOPS * contacts
-
-
-def bench(runtime, sizes=None) -> list[dict]:
-    """Particle-steps/s (capacity x UpdateParticles passes per second) of the particle-only step with every slot alive
-    (a hexagonal colony), for the book's all-pairs UpdateParticles and the uniform-grid variant, and ms per Divide
-    (GetDividableParticles and its counter reads; the pool is empty, so nothing splits); repel flop/s = repel_flops
-    at the state the timed steps end in, per step time (Divide included in the time, not in the flops)."""
-    sizes = sizes or ([4096, 16384, 65536, 262144] if runtime.is_gpu else [1024, 4096])
-    rows = []
-    for count in sizes:
-        cells = colony(count)
-        base = None
-        for search in ("all_pairs", "grid"):
-            params = ParticleParams(count=count, search=search, emit_frames=0, divide_interval=3.0)
-            sim = ParticleSimulation(runtime, params, seed=0)
-            sim.load(cells)
-            seconds = seconds_per_step(sim, min_seconds=0.5, max_steps=20)
-            base = base or seconds
-            records = sim.particle_records()
-            flops = repel_flops(records, params.repulsion, sim.grid, search == "all_pairs")
-            divide = seconds_per_call(sim.divide, runtime.queue, min_seconds=0.2, max_calls=20)
-            rows.append(
-                {
-                    "capacity": count,
-                    "search": search,
-                    "ms/step": seconds * 1e3,
-                    "particle-steps/s": count / seconds,
-                    "speed-up": base / seconds,
-                    "ms/Divide": divide * 1e3,
-                    "repel flop/s": flops / seconds,
-                }
-            )
-    return rows
-
-
-# }}}
 
 
 SCENES = [

@@ -27,11 +27,10 @@ import numpy as np
 import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
-from ..bench.timing import seconds_per_call, seconds_per_step
 from ..buffers import PingPong
+from ..geometry.cloth import grid_triangles
 from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
-from ..runtime import round_up
 from ..scene import Animation, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
@@ -147,8 +146,6 @@ class Simulation(BaseSimulation):
         self.pos = PingPong.zeros(rt, shape, np.float32)  # book: _posBuff[0] (.read), _posBuff[1] (.write)
         self.prev = PingPong.zeros(rt, shape, np.float32)  # book: _posPrevBuff
         self.normal = rt.zeros(shape, np.float32)  # book: _normBuff
-        self.global_size = (round_up(self.width, self.block), round_up(self.height, self.block))
-        self.local_size = (self.block, self.block)
         # the substep's kernel (tests may set the other): PoCL does not vectorize the book's kernel across
         # work-items, so CPU devices get the vector-lane one; Oclgrind keeps the book's kernel to check it
         cpu = bool(rt.device.type & cl.device_type.CPU) and not rt.is_oclgrind
@@ -174,19 +171,15 @@ class Simulation(BaseSimulation):
         if name not in SIMULATION_KERNELS:
             raise ValueError(f"simulation_kernel must be one of {'|'.join(SIMULATION_KERNELS)}, got {name!r}")
         self._simulation_name, self._simulation = name, self.program.kernel(name)
-        if name == "CSSimulation_cpu":  # one work-item per CPU_LANES particles of a row, any work-group
-            self._launch = ((-(-self.width // CPU_LANES), self.height), None)
-        else:
-            self._launch = (self.global_size, self.local_size)
 
     # {{{ kernels, in the book's order
 
     def cs_init(self) -> None:
         """CSInit into pos.read, prev.read and normal, then copy both pairs (book: ResetBuffer's Graphics.Blit)."""
         p, rt = self.params, self.runtime
-        self.program.kernel("CSInit")(
-            self.global_size,
-            self.local_size,
+        self.program.kernel("CSInit").over(
+            (self.width, self.height),
+            (self.block, self.block),
             self.pos.read,
             self.prev.read,
             self.normal,
@@ -225,8 +218,11 @@ class Simulation(BaseSimulation):
         timestep / substeps against the current collider, then swap both ping-pong pairs. ``write_normal`` False
         leaves the normal as it was (step() writes it on a frame's last substep only)."""
         pos, prev = self.pos, self.prev
-        flag = WRITE_NORMAL[write_normal]
-        self._simulation(*self._launch, pos.read, prev.read, pos.write, prev.write, self.normal, *self._scalars(), flag)
+        args = (pos.read, prev.read, pos.write, prev.write, self.normal, *self._scalars(), WRITE_NORMAL[write_normal])
+        if self._simulation_name == "CSSimulation_cpu":  # one work-item per CPU_LANES particles of a row, any group
+            self._simulation((-(-self.width // CPU_LANES), self.height), None, *args)
+        else:
+            self._simulation.over((self.width, self.height), (self.block, self.block), *args)
         # swap buffers: the positions just written are read by the next substep
         pos.swap()
         prev.swap()
@@ -320,74 +316,8 @@ class Simulation(BaseSimulation):
     # }}}
 
 
-def grid_triangles(width: int, height: int) -> np.ndarray:
-    """(2 (W-1)(H-1), 3) int32 vertex indices of the cloth mesh, vertex y * W + x: two triangles per cell."""
-    y, x = np.mgrid[0 : height - 1, 0 : width - 1]
-    a = (y * width + x).ravel()
-    b, c, d = a + 1, a + width + 1, a + width  # (x+1, y), (x+1, y+1), (x, y+1)
-    return np.stack([np.stack([a, b, c], 1), np.stack([a, c, d], 1)], 1).reshape(-1, 3).astype(np.int32)
-
-
-def spring_pairs(width: int, height: int) -> dict[str, np.ndarray]:
-    """The three spring families as (n, 2) int32 vertex-index pairs, each spring once (debug view): structural
-    (x, y)-(x+1, y) and (x, y)-(x, y+1), shear (both diagonals of each cell), bend (x, y)-(x+-2, y+2)."""
-    index = np.arange(width * height).reshape(height, width)
-
-    def pairs(dx: int, dy: int) -> np.ndarray:
-        x0, x1 = max(0, -dx), width - max(0, dx)
-        a = index[0 : height - dy, x0:x1]
-        b = index[dy:height, x0 + dx : x1 + dx]
-        return np.stack([a.ravel(), b.ravel()], 1)
-
-    return {
-        "structural": np.concatenate([pairs(1, 0), pairs(0, 1)]).astype(np.int32),
-        "shear": np.concatenate([pairs(1, 1), pairs(-1, 1)]).astype(np.int32),
-        "bend": np.concatenate([pairs(2, 2), pairs(-2, 2)]).astype(np.int32),
-    }
-
-
 WRITE_NORMAL = {False: np.int32(0), True: np.int32(1)}
 """CSSimulation's write_normal argument (the same objects every launch: the launch path sets a changed one only)."""
-
-SUBSTEP_BATCH = 20
-"""CSSimulation launches the bench runs back to back before it finishes the queue, as a frame's substeps run."""
-
-
-SUBSTEP_BYTES_PER_PARTICLE = 64
-"""A substep's least memory traffic per particle: read pos and prev, write both (float4 each); the neighbours'
-positions come from cache. The bench's ``% copy bw`` is this traffic's share of the device's copy bandwidth."""
-
-
-def bench(runtime, sizes=None) -> list[dict]:
-    """For W = H = each size (main scene: 4 substeps, sphere on): ms per frame (the queue finished after each frame)
-    with particle-updates/s (particles x substeps per second) and frames/s; one substep (a CSSimulation launch and
-    the ping-pong swap) in us, timed over 20 substeps back to back (5 frames' worth, each frame's last writing the
-    normal) and one finish, and as the least traffic a substep needs (SUBSTEP_BYTES_PER_PARTICLE) per second.
-    ``kernel`` names the substep's kernel (CSSimulation_cpu on CPU devices)."""
-    sizes = sizes or ([64, 128, 256, 512, 1024] if runtime.is_gpu else [64, 128, 256])
-    rows = []
-    for n in sizes:
-        sim = Simulation(runtime, Params(**{**MAIN_SCENE, "res": (n, n)}), seed=0)
-        seconds = seconds_per_step(sim, max_steps=100)
-        frames = SUBSTEP_BATCH // sim.params.substeps  # a frame's substeps, the normal written by the last
-        substep = seconds_per_call(sim.cs_substeps, runtime.queue, max_calls=100 * frames, batch=frames)
-        substep /= sim.params.substeps
-        updates = n * n * sim.params.substeps
-        rows.append(
-            {
-                "res": f"{n}x{n}",
-                "particles": n * n,
-                "substeps": sim.params.substeps,
-                "kernel": sim.simulation_kernel,
-                "ms/frame": seconds * 1e3,
-                "us/substep": substep * 1e6,
-                "particle-updates/s": updates / seconds,
-                "frames/s": 1.0 / seconds,
-                "substep bytes/s": SUBSTEP_BYTES_PER_PARTICLE * n * n / substep,
-            }
-        )
-    return rows
-
 
 SCENES = [
     Scene(

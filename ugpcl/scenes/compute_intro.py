@@ -19,9 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 import pyopencl as cl
 
-from ..bench.timing import seconds_per_call
 from ..resources import Allocation
-from ..runtime import round_up
 from ..scene import Animation, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
@@ -145,11 +143,11 @@ class Simulation(BaseSimulation):
 
     # {{{ texture sample
 
-    def _dispatch_texture(self, name: str, texture, local_size=None, program=None) -> None:
+    def _dispatch_texture(self, name: str, texture) -> None:
+        """One work-item per texel in groups of local_size (the kernel's numthreads), padded to whole groups."""
         p = self.params
-        tx, ty = local_size or p.local_size
-        global_size = (round_up(p.tex_width, tx), round_up(p.tex_height, ty))
-        (program or self.texture_program).kernel(name)(global_size, (tx, ty), *self._texture_args(texture))
+        kernel = self.texture_program.kernel(name)
+        kernel.over((p.tex_width, p.tex_height), p.local_size, *self._texture_args(texture))
 
     def kernel_function_a_texture(self) -> None:
         """KernelFunction_A on texture A: horizontal black-to-white gradient."""
@@ -164,7 +162,7 @@ class Simulation(BaseSimulation):
         p = self.params
         texture = self._texture()
         count = p.tex_width * p.tex_height
-        self.texture_program.kernel("KernelFunction_A_1D")((round_up(count, 64),), (64,), *self._texture_args(texture))
+        self.texture_program.kernel("KernelFunction_A_1D").over(count, 64, *self._texture_args(texture))
         return self.read_texture(texture)
 
     def kernel_work_group_size(self, name: str = "KernelFunction_A") -> tuple[int, int, int]:
@@ -216,46 +214,6 @@ class Simulation(BaseSimulation):
 
     def stats(self) -> dict:
         return {**super().stats(), "images": self.use_images, "groups": self.params.groups}
-
-
-# {{{ bench
-
-
-LOCAL_SHAPES = ((8, 8), (16, 16), (32, 8), (64, 1), (256, 1), (1, 64))
-"""numthreads shapes compared by the bench (vol.1 ch.2 section 2.4.2, "Tips for specifying the number of threads
-efficiently")."""
-
-
-TEXEL_BYTES = 4
-"""KernelFunction_A's whole memory traffic per texel: it reads nothing and writes one RGBA8 texel (4 bytes)."""
-
-
-def bench(runtime, sizes=None) -> list[dict]:
-    """GB/s of KernelFunction_A filling a size x size RGBA8 texture with each numthreads shape,
-    and once with a size that is not a multiple of the shape (padding + guard); write bytes/s = the same traffic
-    (TEXEL_BYTES per texel) per second."""
-    sizes = sizes or ([8192] if runtime.is_gpu else [2048])
-    rows = []
-    for size in sizes:
-        for shape in LOCAL_SHAPES:
-            if shape[0] * shape[1] > runtime.device.max_work_group_size:
-                continue
-            for width in (size, size + 1):
-                sim = Simulation(runtime, Params(sample="texture", tex_width=width, tex_height=width, local_size=shape))
-                seconds = seconds_per_call(sim.kernel_function_a_texture, runtime.queue)
-                rows.append(
-                    {
-                        "size": f"{width}x{width}",
-                        "numthreads": f"{shape[0]}x{shape[1]}",
-                        "ms": seconds * 1e3,
-                        "GB/s": width * width * TEXEL_BYTES / seconds / 1e9,
-                        "write bytes/s": width * width * TEXEL_BYTES / seconds,
-                    }
-                )
-    return rows
-
-
-# }}}
 
 
 SCENES = [

@@ -29,12 +29,10 @@ import numpy as np
 import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
-from ..bench.timing import seconds_per_call
 from ..buffers import Pool
 from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
 from ..resources import Allocation
-from ..runtime import round_up
 from ..scene import Animation, PreviewCheck, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
@@ -48,9 +46,9 @@ NORMALS = {"analytic": 0, "grid": 1}
 SCAN_BLOCK_SIZE = 256
 """Work-group size of ScanBlocks (values scanned per group in __local memory)."""
 FIELD_GROUP = 64
+"""Work-group width of SampleField (x rows rounded up to it): 4 AVX-512 vectors for PoCL, 2 warps on a GPU."""
 CPU_LANES = 8
 """Cells (or grid points) of a row per work-item of the *_cpu kernels (CPU_LANES in marching_cubes.cl)."""
-"""Work-group width of SampleField (x rows rounded up to it): 4 AVX-512 vectors for PoCL, 2 warps on a GPU."""
 PULSE_RATE = 8.0
 """Angular frequency of the spheres' pulsing, rad/s (book: sin(_Time.y * 8.0 + i * 23.365)): period 2 pi / 8 s."""
 PULSE_PHASE = 23.365
@@ -169,8 +167,9 @@ class Simulation(BaseSimulation):
         if self.cpu_kernels:
             self.program.kernel("SampleField_cpu")(*self._runs(side), self.field.data, *self._field_args())
             return
-        size = (round_up(side, FIELD_GROUP), side, side)
-        self.program.kernel("SampleField")(size, (FIELD_GROUP, 1, 1), self.field.data, *self._field_args())
+        self.program.kernel("SampleField").over(
+            (side, side, side), (FIELD_GROUP, 1, 1), self.field.data, *self._field_args()
+        )
 
     def polygonize_append(self, pool: Pool | None = None, capacity: int | None = None) -> None:
         """PolygonizeAppend: every cell appends its triangles to ``pool`` (default: the scene's, emptied first).
@@ -205,20 +204,11 @@ class Simulation(BaseSimulation):
         if n not in self.scan_levels:  # block sums and their scan, kept per level
             self.scan_levels[n] = (self.runtime.empty(groups, np.uint32), self.runtime.empty(groups, np.uint32))
         sums, offsets = self.scan_levels[n]
-        self.program.kernel("ScanBlocks")(
-            (groups * SCAN_BLOCK_SIZE,),
-            (SCAN_BLOCK_SIZE,),
-            values.data,
-            out.data,
-            sums.data,
-            np.int32(n),
-        )
+        self.program.kernel("ScanBlocks").over(n, SCAN_BLOCK_SIZE, values.data, out.data, sums.data, np.int32(n))
         if groups == 1:
             return int(sums.get()[0])
         total = self.scan(sums, offsets, groups)
-        self.program.kernel("AddBlockOffsets")(
-            (round_up(n, SCAN_BLOCK_SIZE),), None, out.data, offsets.data, np.int32(n)
-        )
+        self.program.kernel("AddBlockOffsets").over(n, SCAN_BLOCK_SIZE, out.data, offsets.data, np.int32(n))
         return total
 
     def generate_triangles(self) -> None:
@@ -323,62 +313,6 @@ class Simulation(BaseSimulation):
         }
 
     # }}}
-
-
-def bench(runtime, sizes=None) -> list[dict]:
-    """Marching cubes of the three spheres (repository radii, t = 0.3) on N^3 cells: ms for SampleField ((N+1)^3 field
-    evaluations) and for each OpenCL path on that field, voxels (cells) per second of the meshing alone and of field +
-    mesh, against scikit-image's marching_cubes (lorensen) meshing the same float32 field in the same run (where
-    scikit-image, a test dependency, is installed); the field's write traffic and the meshing's least read traffic (4
-    bytes per grid point each) per second. "kernels": the *_cpu kernels (CPU devices) or the one-cell kernels."""
-    try:
-        from skimage.measure import marching_cubes as skimage_marching_cubes
-    except ImportError:
-        skimage_marching_cubes = None
-
-    sizes = sizes or ([64, 128, 256, 512] if runtime.is_gpu else [64, 128, 256])
-    rows = []
-    for n in sizes:
-        sim = Simulation(runtime, Params(segment_num=n, shape="spheres-repo", time=0.3, animate=False), seed=0)
-        queue, cells = runtime.queue, n**3
-        field_s = seconds_per_call(sim.sample_field, queue, max_calls=50)
-        for path in ("append", "scan"):
-            sim.update(path=path)
-            mesh_s = seconds_per_call(sim.polygonize, queue, max_calls=50)
-            rows.append(
-                {
-                    "N": n,
-                    "mesher": f"OpenCL {path}",
-                    "kernels": "cpu" if sim.cpu_kernels else "one-cell",
-                    "ms field": field_s * 1e3,
-                    "ms mesh": mesh_s * 1e3,
-                    "triangles": sim.pool.count(),
-                    "voxels/s mesh": cells / mesh_s,
-                    "voxels/s field+mesh": cells / (field_s + mesh_s),
-                    "field bytes/s": 4 * (n + 1) ** 3 / field_s,
-                    "mesh bytes/s": 4 * (n + 1) ** 3 / mesh_s,
-                }
-            )
-        if skimage_marching_cubes is None:
-            continue
-        field, level = sim.field_array(), float(np.float32(sim.params.threshold))
-        mesh_s = seconds_per_call(
-            lambda f=field, lv=level: skimage_marching_cubes(f, lv, method="lorensen"), queue, max_calls=5
-        )
-        faces = skimage_marching_cubes(field, level, method="lorensen")[1]
-        rows.append(
-            {
-                "N": n,
-                "mesher": "scikit-image",
-                "kernels": "-",
-                "ms field": "-",
-                "ms mesh": mesh_s * 1e3,
-                "triangles": len(faces),
-                "voxels/s mesh": cells / mesh_s,
-                "voxels/s field+mesh": "-",
-            }
-        )
-    return rows
 
 
 SCENES = [

@@ -13,7 +13,8 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from ugpcl.scenes.cloth import DEBUG_SCENE, MAIN_SCENE, grid_triangles, spring_pairs
+from ugpcl.geometry.cloth import grid_triangles, spring_pairs
+from ugpcl.scenes.cloth import DEBUG_SCENE, MAIN_SCENE
 
 from ..camera import OrbitCamera
 from ..gl import Lines, load_program, set_camera, set_uniform
