@@ -8,7 +8,7 @@ export UGPCL_DEVICE
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 # Debian packages: PoCL (the CPU OpenCL that builds kernels here; PyPI's pocl-binary-distribution cannot, see
-# DESIGN.md), Mesa's EGL/llvmpipe for offscreen PNGs, Xvfb + xdotool for the test that opens a real window.
+# docs/architecture.md, "Devices"), Mesa's EGL/llvmpipe for offscreen PNGs, Xvfb + xdotool for the window test.
 SYSTEM_PACKAGES := pocl-opencl-icd ocl-icd-libopencl1 libegl1 libegl-mesa0 libgl1-mesa-dri xvfb xdotool
 
 .DEFAULT_GOAL := help

@@ -29,16 +29,48 @@ PREVIEW_SIZE = (1280, 720)
 BLOCK = re.compile(r"(<!-- BEGIN generated:([\w-]+)(?: (\w+))? -->\n)(.*?)(<!-- END generated -->)", re.S)
 
 
+CHAPTERS: dict[str, tuple[int, str]] = {
+    "procedural_modeling": (1, "Procedural modeling (vol.1 ch.1)"),
+    "compute_intro": (2, "Getting started with compute (vol.1 ch.2)"),
+    "boids": (3, "Boids on the GPU (vol.1 ch.3)"),
+    "stable_fluids_2d": (4, "Stable fluids in 2D (vol.1 ch.4)"),
+    "stable_fluids_3d": (4, "Stable fluids in 3D (vol.1 ch.4)"),
+    "sph_2d": (5, "SPH fluid 2D (vol.1 ch.5)"),
+    "grass": (6, "Geometry shaders: pyramids and grass (vol.1 ch.6)"),
+    "marching_cubes": (7, "Marching cubes, starting with atmosphere (vol.1 ch.7)"),
+    "mcmc": (8, "3D spatial sampling with MCMC (vol.1 ch.8)"),
+    "multiplane_projection": (9, "MultiPlane perspective projection (vol.1 ch.9)"),
+    "projection_spray": (10, "Projection spray (vol.1 ch.10)"),
+    "cellular_growth": (11, "GPU-based cellular growth (vol.3 ch.4)"),
+    "space_colonization": (12, "GPU-based space colonization (vol.4 ch.1)"),
+    "kleinian": (13, "Limit sets of Kleinian groups (vol.4 ch.2)"),
+    "cloth": (14, "GPU cloth simulation (vol.4 ch.3)"),
+    "star_glow": (15, "StarGlow (vol.4 ch.4)"),
+    "ear_clipping": (16, "Triangulation by ear clipping (vol.4 ch.5)"),
+    "tessellation": (17, "Tessellation & displacement (vol.4 ch.6)"),
+    "poisson_disk": (18, "Poisson disk sampling (vol.4 ch.7)"),
+}
+"""The chapter pages in the books' order: {stem: (page number, title)}. The page of ``stem`` is
+``docs/chapters/NN-<stem with hyphens>.md`` and its first line ``# <title>``; two stems of one book chapter share
+its number (the 2D and 3D fluids). A new chapter gets its number here (docs/adding-a-chapter.md)."""
+
+
+def chapter_page(stem: str) -> Path:
+    """Where the page of chapter ``stem`` (a key of CHAPTERS) lives."""
+    number, _ = CHAPTERS[stem]
+    return ROOT / "docs" / "chapters" / f"{number:02d}-{stem.replace('_', '-')}.md"
+
+
 def chapter_doc(scene) -> Path | None:
-    """The page of the scene's stem, else of its longest stem prefix: space_colonization_cpu and
-    space_colonization_skinned are documented on the space_colonization page."""
-    chapters = ROOT / "docs" / "chapters"
+    """The page of the scene's stem in CHAPTERS, else of its longest stem prefix there (space_colonization_cpu and
+    space_colonization_skinned are documented on the space_colonization page); None for a scene of no chapter (one
+    loaded from UGPCL_SCENES) or where the page is absent (an installed package has no docs/)."""
     words = scene.stem.split("_")
     for n in range(len(words), 0, -1):
         stem = "_".join(words[:n])
-        matches = sorted({*chapters.glob(f"*-{stem}.md"), *chapters.glob(f"*-{stem.replace('_', '-')}.md")})
-        if matches:
-            return matches[0]
+        if stem in CHAPTERS:
+            page = chapter_page(stem)
+            return page if page.is_file() else None
     return None
 
 

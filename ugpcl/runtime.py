@@ -27,8 +27,6 @@ import pyopencl.cltypes as cltypes
 
 
 def _kernel_dir() -> Path:
-    if os.environ.get("UGPCL_KERNELS"):
-        return Path(os.environ["UGPCL_KERNELS"])
     try:
         return Path(str(resources.files("ugpcl.clkernels")))
     except ModuleNotFoundError:  # a checkout on PYTHONPATH, not installed: the folder beside ugpcl/
@@ -36,9 +34,11 @@ def _kernel_dir() -> Path:
 
 
 KERNEL_DIR = _kernel_dir()
-"""The ``.cl`` files: the package data of ``ugpcl.clkernels`` (the top-level ``clkernels/`` folder of a checkout,
-installed or editable alike); ``UGPCL_KERNELS`` points elsewhere, e.g. at a folder of edited copies."""
+"""The package's ``.cl`` files: the package data of ``ugpcl.clkernels`` (the top-level ``clkernels/`` folder of a
+checkout, installed or editable alike)."""
 INCLUDE_DIR = KERNEL_DIR / "include"
+"""The shared headers (``pool.h``, ``grid.h``, ``random.h`` ...): every program is built with ``-I`` this folder."""
+
 
 INSTALL_HINT = (
     "install an OpenCL driver: Debian/Ubuntu `apt-get install pocl-opencl-icd` (CPU), "
@@ -54,6 +54,23 @@ class DeviceError(RuntimeError):
 
 class BuildError(RuntimeError):
     """A ``clkernels/*.cl`` file failed to build; the message holds the file name and the build log."""
+
+
+def kernel_dirs() -> list[Path]:
+    """Where ``Runtime.program(stem)`` looks for ``<stem>.cl``, in order: the folders ``UGPCL_KERNELS`` names
+    (os.pathsep-separated: a chapter of your own, edited copies of ours), then ``KERNEL_DIR``. Read at each build,
+    so a test may set it; the include folder stays the package's."""
+    extra = [Path(p) for p in os.environ.get("UGPCL_KERNELS", "").split(os.pathsep) if p]
+    return [*extra, KERNEL_DIR]
+
+
+def kernel_file(stem: str) -> Path:
+    """The first ``<stem>.cl`` of ``kernel_dirs()``; BuildError naming every folder searched when none has it."""
+    folders = kernel_dirs()
+    for folder in folders:
+        if (folder / f"{stem}.cl").is_file():
+            return folder / f"{stem}.cl"
+    raise BuildError(f"{stem}.cl: no such kernel file in {', '.join(str(f) for f in folders)}")
 
 
 def round_up(n: int, multiple: int) -> int:
@@ -451,10 +468,11 @@ class Runtime:
     # {{{ programs
 
     def program(self, stem: str, **defines) -> Program:
-        """Build ``clkernels/<stem>.cl`` with ``-D NAME=value`` for each define (cached per stem and defines)."""
+        """Build ``<stem>.cl`` (the first of ``kernel_dirs()``: ``clkernels/`` unless ``UGPCL_KERNELS`` names a folder
+        that has one) with ``-D NAME=value`` for each define (cached per stem and defines)."""
         key = (stem, tuple(sorted(defines.items())))
         if key not in self._programs:
-            self._programs[key] = self._build(KERNEL_DIR / f"{stem}.cl", defines)
+            self._programs[key] = self._build(kernel_file(stem), defines)
         return self._programs[key]
 
     def fitted_program(
@@ -472,9 +490,9 @@ class Runtime:
             size //= 2
 
     def _build(self, path: Path, defines: dict) -> Program:
-        if not path.exists():
-            raise BuildError(f"{path}: no such kernel file")
-        return self.program_from_source(path.read_text(), path.name, **defines)
+        program = self.program_from_source(path.read_text(), path.name, **defines)
+        program.path = path
+        return program
 
     def program_from_source(self, text: str, name: str = "<source>", **defines) -> Program:
         """Build OpenCL C ``text`` as a ``clkernels/`` file is built (the include folder on the path, argument info
