@@ -21,17 +21,9 @@ import moderngl_window as mglw
 from imgui_bundle import imgui
 
 from ugpcl import resources
-from ugpcl.cli import (
-    Diverged,
-    HelpFormatter,
-    UsageError,
-    Watch,
-    parse_sets,
-    parse_size,
-    quiet_broken_pipe,
-    scene_named,
-    written_whole,
-)
+from ugpcl.io import UsageError, written_whole
+from ugpcl.options import HelpFormatter, parse_sets, parse_size, quiet_broken_pipe, scene_named
+from ugpcl.run import Diverged, Watch
 from ugpcl.runtime import BuildError, DeviceError, Runtime
 from ugpcl.scene import _show
 
