@@ -19,7 +19,7 @@ import pyopencl as cl
 from . import resources
 from .io import UsageError, written_whole
 from .runtime import Runtime
-from .scene import ParamError, Scene, Simulation
+from .scene import ParamError, Params, Scene, Simulation
 
 CHECK_SECONDS = 2.0
 """How often a run reads its state back to look for NaN/inf (also at every --every snapshot and at the end)."""
@@ -169,7 +169,7 @@ def run_steps(
     return out
 
 
-def open_simulation(scene: Scene, params, seed: int, runtime: Runtime, announce: bool = False) -> Simulation:
+def open_simulation(scene: Scene, params: Params, seed: int, runtime: Runtime, announce: bool = False) -> Simulation:
     """The simulation of one run (``ugpcl run``, each ``ugpcl sweep`` task), after checking that the device holds
     its buffers: UsageError when it does not or when the scene cannot build its state from ``params``."""
     try:
