@@ -172,8 +172,8 @@ def test_bench_shares_of_the_device_limits_and_json_records_match_the_table(caps
     """`% copy bw` follows every `... bytes/s` column, computed from the measured copy bandwidth; --json holds one
     record per float of the tables, with the row's sizes and variants as labels."""
     from ugpcl.bench.device import device_limits
-    from ugpcl.cli import format_table
     from ugpcl.runtime import Runtime
+    from ugpcl.table import format_table
 
     out_json = tmp_path / "b.json"
     code, out, _ = run(capsys, "bench", "copy", "stable_fluids_2d", "--size", "32", "--json", str(out_json))
@@ -335,7 +335,7 @@ def test_divergence_is_one_line_exit_1_and_writes_only_when_asked(capsys, tmp_pa
 
 def test_inf_where_a_scene_means_it_is_no_divergence(capsys, tmp_path):
     """poisson_disk's nn_dist is inf for a lone sample (the first step's one point); NaN there still diverges."""
-    from ugpcl.cli import non_finite
+    from ugpcl.run import non_finite
 
     state = {"nn_dist": np.array([np.inf]), "other": np.array([np.inf]), "n": np.array([1])}
     assert non_finite(state, ("nn_dist",)) == ["other"]
@@ -398,9 +398,9 @@ def test_resume_refuses_what_it_cannot_continue(capsys, tmp_path):
 
 def test_progress_lines_without_a_terminal_and_quiet(capsys, tmp_path, monkeypatch):
     """stderr here is not a terminal: a line every PROGRESS_LINE_SECONDS (0 in this test); --quiet: none."""
-    import ugpcl.cli
+    import ugpcl.run
 
-    monkeypatch.setattr(ugpcl.cli, "PROGRESS_LINE_SECONDS", 0.0)
+    monkeypatch.setattr(ugpcl.run, "PROGRESS_LINE_SECONDS", 0.0)
     argv = ["run", "boids", "--steps", "6", "--set", "max_object_num=64", "--out", str(tmp_path / "b.npz")]
     code, _, err = run(capsys, *argv)
     lines = [line for line in err.splitlines() if " step " in line]

@@ -15,7 +15,7 @@ import pytest
 
 from ugpcl.docs import params_table
 from ugpcl.registry import scenes
-from ugpcl.scene import FLOAT32_MAX, LIMIT, Params, _describe_range, _show, param
+from ugpcl.scene import FLOAT32_MAX, LIMIT, Params, _describe_range, param, show_value
 from ugpcl.scenes.sph_2d import Params as SphParams
 from ugpcl.scenes.sph_2d import Simulation as SphSimulation
 
@@ -237,7 +237,7 @@ def test_every_limit_is_enforced_up_to_its_edge(scene, rule):
     assert named and set(bad) <= set(named), f"{rule!r} names {named}"
     defaults = scene.params().to_dict()
     for name in named:  # every field of the rule with the value it had
-        assert f"{name}={_show(bad.get(name, defaults[name]))}" in message, message
+        assert f"{name}={show_value(bad.get(name, defaults[name]))}" in message, message
 
 
 def test_limits_are_shown_under_the_parameter_table():

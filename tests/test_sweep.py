@@ -45,7 +45,7 @@ def ok_rows(folder: Path) -> list[str]:
 
 
 def landed(folder: Path) -> list[Path]:
-    """The runs' .npz files, less a run's '.NAME.partial.npz' (cli.written_whole) still being written."""
+    """The runs' .npz files, less a run's '.NAME.partial.npz' (io.written_whole) still being written."""
     return [p for p in folder.glob("*.npz") if not p.name.startswith(".")]
 
 

@@ -11,80 +11,35 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import shutil
 import signal
 import sys
-import tempfile
-import textwrap
 import threading
 import time
-from collections import deque
-from collections.abc import Callable
-from contextlib import contextmanager, nullcontext
+from contextlib import nullcontext
 from pathlib import Path
 
 import numpy as np
 import pyopencl as cl
 
-from . import __version__, resources
+from . import __version__
 from .geometry.mesh_io import MESH_SUFFIXES
-from .registry import get, scenes
+from .io import UsageError, load_checkpoint, output_folder, output_path, record, write_npz, written_whole
+from .options import (
+    MAX_SEED,
+    HelpFormatter,
+    parse_sets,
+    parse_size,
+    quiet_broken_pipe,
+    scene_named,
+    scene_params,
+)
+from .registry import scenes
+from .run import Diverged, open_simulation, report, restore_checkpoint, run_steps, write_pictures
 from .runtime import BuildError, DeviceError, Runtime, all_devices
-from .scene import ParamError, Scene, Simulation, check_dt
+from .scene import check_dt
+from .table import format_table
 
 USAGE_ERROR, RUNTIME_ERROR, INTERRUPTED, TERMINATED = 2, 1, 130, 143
-MAX_SEED = 2**63 - 1
-"""Largest --seed: the .npz stores it as int64."""
-CHECK_SECONDS = 2.0
-"""How often a run reads its state back to look for NaN/inf (also at every --every snapshot and at the end)."""
-STEPS_IN_FLIGHT = 4
-"""Steps ``ugpcl run`` lets the device queue hold before it waits for the oldest: the progress bar counts
-finished steps, and the host never runs far ahead of the device."""
-
-
-class UsageError(Exception):
-    """Bad input from the command line, found before the run starts: printed as one line, exit 2."""
-
-
-class Diverged(RuntimeError):
-    """The simulation produced NaN or inf: one line naming the arrays, the steps and the parameters that were set."""
-
-    def __init__(self, first: int, last: int, arrays: list[str], state: dict):
-        steps = f"step {last}" if first == last else f"steps {first} and {last}"
-        super().__init__(f"diverged between {steps}: {', '.join(arrays)} hold NaN or inf")
-        self.state = state
-
-
-def non_finite(state: dict, may_be_infinite: tuple[str, ...] = ()) -> list[str]:
-    """Names of the floating-point arrays of ``state`` that hold NaN or inf (only NaN for ``may_be_infinite``)."""
-    bad = []
-    for key, value in state.items():
-        if np.issubdtype(np.asarray(value).dtype, np.floating):
-            finite = ~np.isnan(value) if key in may_be_infinite else np.isfinite(value)
-            if not finite.all():
-                bad.append(key)
-    return bad
-
-
-class Watch:
-    """Looks for NaN/inf in a simulation's state: ``check()`` reads it back (or takes one already read) and raises
-    Diverged naming the steps since the last finite check; ``due()`` says CHECK_SECONDS have passed since then.
-    ``ugpcl run`` and the viewer share it."""
-
-    def __init__(self, sim: Simulation):
-        self.sim, self.step, self.at = sim, sim.steps, time.monotonic()
-
-    def due(self) -> bool:
-        return time.monotonic() - self.at > CHECK_SECONDS
-
-    def check(self, state: dict | None = None) -> dict:
-        state = self.sim.state() if state is None else state
-        bad = non_finite(state, self.sim.may_be_infinite)
-        if bad:
-            raise Diverged(self.step + 1, self.sim.steps, bad, state)
-        self.step, self.at = self.sim.steps, time.monotonic()
-        return state
 
 
 class Terminated(Exception):
@@ -94,57 +49,6 @@ class Terminated(Exception):
 def _on_sigterm(signum, frame):
     raise Terminated
 
-
-# {{{ tables
-
-
-def terminal_width() -> int:
-    """Columns of the terminal (``COLUMNS`` wins); 160 when the output is not a terminal."""
-    return shutil.get_terminal_size(fallback=(160, 24)).columns
-
-
-def format_table(rows: list[dict], columns: list[str] | None = None, width: int | None = None) -> str:
-    """A plain-text table that fits ``width`` (default: the terminal): text left-aligned, numbers right-aligned,
-    columns narrowed from the widest down and their cells wrapped at word boundaries; floats get 4 significant
-    digits (or engineering form when large or small)."""
-    if not rows:
-        return "(no rows)"
-    columns = columns or list(dict.fromkeys(k for row in rows for k in row))
-
-    def cell(v) -> str:
-        if isinstance(v, float):
-            return f"{v:.3e}" if abs(v) >= 1e5 or (v != 0 and abs(v) < 1e-3) else f"{v:.4g}"
-        return str(v)
-
-    text = [[cell(row.get(c, "")) for c in columns] for row in rows]
-    numeric = [all(isinstance(row.get(c), int | float) for row in rows if c in row) for c in columns]
-    widths = [max(len(c), *(len(r[i]) for r in text)) for i, c in enumerate(columns)]
-    # narrowest a column may get: the first (the names) stays whole; the others keep their header and words up to
-    # 16 characters whole (longer words break)
-    floors = [widths[0]] + [
-        min(w, max(len(c), min(16, max(len(word) for r in text for word in r[i].split() or [""]))))
-        for i, (c, w) in enumerate(zip(columns, widths, strict=True))
-    ][1:]
-    budget = (width or terminal_width()) - 2 * (len(columns) - 1)
-    while sum(widths) > budget:
-        i = max(range(len(widths)), key=lambda k: (widths[k] > floors[k], widths[k], k))  # the widest first
-        if widths[i] <= floors[i]:
-            break  # every column at its floor: let the line run long rather than lose text
-        widths[i] -= 1
-
-    def line(cells: list[str]) -> str:
-        parts = [t.rjust(w) if num else t.ljust(w) for t, w, num in zip(cells, widths, numeric, strict=True)]
-        return "  ".join(parts).rstrip()
-
-    lines = [line(list(columns)), "  ".join("-" * w for w in widths)]
-    for r in text:
-        wrapped = [textwrap.wrap(t, w, break_on_hyphens=False) or [""] for t, w in zip(r, widths, strict=True)]
-        for k in range(max(len(cell_lines) for cell_lines in wrapped)):
-            lines.append(line([cell_lines[k] if k < len(cell_lines) else "" for cell_lines in wrapped]))
-    return "\n".join(lines)
-
-
-# }}}
 
 # {{{ commands
 
@@ -208,198 +112,6 @@ def cmd_params(args) -> int:
     return 0
 
 
-def scene_named(name: str) -> Scene:
-    try:
-        return get(name)
-    except ValueError as err:  # unknown scene: the message lists the valid names
-        raise UsageError(str(err)) from None
-
-
-def parse_sets(scene: Scene, pairs: list[str]) -> dict:
-    """``--set NAME=VALUE`` pairs converted with each field's type; UsageError names the bad one."""
-    params = scene.simulation.Params
-    out = {}
-    for pair in pairs:
-        name, sep, text = pair.partition("=")
-        if not sep:
-            raise UsageError(f"--set expects name=value, got {pair!r}")
-        try:
-            out[name.strip()] = params.parse(name.strip(), text)
-        except ValueError as err:
-            raise UsageError(str(err)) from None
-    return out
-
-
-class ProgressLines:
-    """Signs of life when stderr is not a terminal (a log file, CI, a batch job): one line every ``interval``
-    seconds, ``ugpcl: boids step 120/600 (20%), 31.2 steps/s, about 15 s left``. Same use as a tqdm bar."""
-
-    def __init__(self, label: str, total: int, interval: float):
-        self.label, self.total, self.interval = label, total, interval
-        self.done, self.start = 0, time.monotonic()
-        self.shown = self.start
-
-    def update(self, n: int = 1) -> None:
-        self.done += n
-        now = time.monotonic()
-        if now - self.shown >= self.interval and self.done < self.total:
-            self.shown = now
-            rate = self.done / (now - self.start)
-            left = (self.total - self.done) / rate if rate > 0 else float("inf")
-            print(
-                f"ugpcl: {self.label} step {self.done}/{self.total} ({100 * self.done // self.total}%), "
-                f"{rate:.3g} steps/s, about {left:.0f} s left",
-                file=sys.stderr,
-                flush=True,
-            )
-
-    def __enter__(self) -> ProgressLines:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        pass
-
-
-PROGRESS_LINE_SECONDS = 5.0
-"""How often a run whose stderr is not a terminal prints a progress line."""
-
-
-def _progress(label: str, total: int, quiet: bool):
-    """A progress bar on a terminal; a line every PROGRESS_LINE_SECONDS otherwise; nothing with ``quiet``."""
-    if quiet or not sys.stderr.isatty():
-        return ProgressLines(label, total, float("inf") if quiet else PROGRESS_LINE_SECONDS)
-    from tqdm import tqdm
-
-    # a pseudo-terminal may report a 0 x 0 screen (script, some CI runners): tqdm would then draw nothing
-    columns, lines = shutil.get_terminal_size()
-    return tqdm(total=total, unit="step", file=sys.stderr, mininterval=0.25, ncols=min(columns, 100), nrows=lines)
-
-
-def run_steps(
-    sim: Simulation,
-    steps: int,
-    dt: float,
-    every: int | None = None,
-    quiet: bool = False,
-    checkpoint: tuple[int, Callable[[dict], None]] | None = None,
-    frame: tuple[int, Callable[[], None]] | None = None,
-) -> dict[str, np.ndarray]:
-    """Step ``sim`` and return the final state plus, with ``every``, stacked ``<name>_history`` and ``time``.
-    ``checkpoint=(K, save)`` calls ``save(state)`` after every K-th step; ``frame=(K, record)`` calls ``record()``
-    before the first step and after every K-th (``--video``/``--frames``). Steps are counted from ``sim.steps``
-    (a resumed run goes on from the checkpoint's count).
-
-    ``step`` only enqueues work; a marker after each step tells when it has finished on the device, and the bar
-    advances then. At most STEPS_IN_FLIGHT steps are queued ahead of the device."""
-    queue = sim.runtime.queue
-    frames, times = [], []
-    watch = Watch(sim)
-
-    def snapshot():
-        state = watch.check()
-        frames.append({k: state[k] for k in sim.history})
-        times.append(sim.time)
-
-    if every:
-        snapshot()
-    if frame:
-        frame[1]()
-    in_flight: deque[cl.Event] = deque()
-    complete = cl.command_execution_status.COMPLETE
-    with _progress(sim.scene.name if sim.scene else type(sim).__name__, steps, quiet) as progress:
-        for i in range(1, steps + 1):
-            sim.step(dt)
-            if every and i % every == 0:
-                snapshot()
-            elif watch.due():
-                watch.check()
-            if frame and i % frame[0] == 0:
-                frame[1]()
-            if checkpoint and sim.steps % checkpoint[0] == 0 and i < steps:
-                checkpoint[1](watch.check())
-            in_flight.append(cl.enqueue_marker(queue))
-            queue.flush()
-            while in_flight and (len(in_flight) > STEPS_IN_FLIGHT or in_flight[0].command_execution_status == complete):
-                in_flight.popleft().wait()
-                progress.update()
-        while in_flight:
-            in_flight.popleft().wait()
-            progress.update()
-    out = dict(watch.check())
-    if every:
-        for key in sim.history:
-            out[f"{key}_history"] = np.stack([f[key] for f in frames])
-        out["time"] = np.asarray(times, np.float32)
-    return out
-
-
-def output_path(text: str | None, option: str, suffixes: tuple[str, ...]) -> Path | None:
-    """Check an output file before the run: its format by suffix, that it is not a folder, and that its folder
-    exists or can be made and is writable. Nothing is written yet."""
-    if text is None:
-        return None
-    path = Path(text)
-    if path.is_dir():
-        raise UsageError(f"{option} {text}: is a folder; give a file name ending in {' or '.join(suffixes)}")
-    if path.suffix.lower() not in suffixes:
-        raise UsageError(f"{option} must end in {' or '.join(suffixes)}, got {text!r}")
-    folder = path.parent.resolve()
-    while not folder.exists():  # the first folder that exists must let us make the rest
-        folder = folder.parent
-    try:  # a real file, not os.access: root passes that check in read-only mounts and /proc
-        if not folder.is_dir():
-            raise NotADirectoryError(20, "not a folder")
-        with tempfile.TemporaryFile(dir=folder):
-            pass
-    except OSError as err:
-        raise UsageError(f"{option} {text}: cannot write in {folder} ({err.strerror})") from None
-    return path
-
-
-def output_folder(text: str | None, option: str) -> Path | None:
-    """Check a folder for numbered files before the run: not a file, and it exists or can be made, writable."""
-    if text is None:
-        return None
-    if Path(text).exists() and not Path(text).is_dir():
-        raise UsageError(f"{option} {text}: is a file; give a folder")
-    output_path(str(Path(text) / "frame-000000.png"), option, (".png",))
-    return Path(text)
-
-
-@contextmanager
-def written_whole(path: Path):
-    """Yield a temporary name beside ``path`` (same suffix, so writers that go by it still do); rename it over
-    ``path`` when the block completes, remove it otherwise. A reader never sees a half-written file, and an
-    interrupted run leaves the previous one in place."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    partial = path.with_name(f".{path.stem}.partial{path.suffix}")
-    try:
-        yield partial
-        os.replace(partial, path)
-    finally:
-        partial.unlink(missing_ok=True)
-
-
-def write_npz(path: Path, arrays: dict) -> None:
-    with written_whole(path) as partial, open(partial, "wb") as f:
-        np.savez(f, **arrays)
-
-
-def load_checkpoint(text: str) -> dict[str, np.ndarray]:
-    """The arrays of a ``ugpcl run`` .npz (a checkpoint or a finished run) to go on from; UsageError otherwise."""
-    try:
-        with np.load(text) as data:
-            found = {k: data[k] for k in data.files}
-    except (OSError, ValueError) as err:
-        raise UsageError(f"--resume {text}: cannot read it as a .npz ({err})") from None
-    missing = [k for k in ("scene", "params", "seed", "steps", "sim_time") if k not in found]
-    if missing:
-        raise UsageError(f"--resume {text}: not written by ugpcl run (no {', '.join(missing)})")
-    if found.get("diverged", False):
-        raise UsageError(f"--resume {text}: holds a diverged state")
-    return found
-
-
 def cmd_run(args) -> int:
     # {{{ everything that can be checked before the run
     resume = load_checkpoint(args.resume) if args.resume else None
@@ -420,9 +132,9 @@ def cmd_run(args) -> int:
     if resume is not None:
         if not scene.simulation.resumable():
             raise UsageError(f"--resume: scene {scene.name} cannot resume (it does not restore its state)")
-        params = _params(scene, recorded)
+        params = scene_params(scene, recorded)
     else:
-        params = _params(scene, parse_sets(scene, args.set or []))
+        params = scene_params(scene, parse_sets(scene, args.set or []))
     seed = 0 if args.seed is None else args.seed
     if args.steps < 0:
         raise UsageError(f"--steps must be >= 0, got {args.steps}")
@@ -456,8 +168,7 @@ def cmd_run(args) -> int:
     runtime = Runtime.shared(args.device)
     sim = open_simulation(scene, params, seed, runtime, announce=True)
     if resume is not None:
-        sim.restore(resume)
-        sim.steps, sim.time = int(resume["steps"]), float(resume["sim_time"])
+        restore_checkpoint(sim, resume)
         print(f"ugpcl: resumed {args.resume} at step {sim.steps}", file=sys.stderr)
 
     def save_checkpoint(state: dict) -> None:
@@ -498,53 +209,6 @@ def cmd_run(args) -> int:
     return 0
 
 
-def open_simulation(scene: Scene, params, seed: int, runtime: Runtime, announce: bool = False) -> Simulation:
-    """The simulation of one run (``ugpcl run``, each ``ugpcl sweep`` task), after checking that the device holds
-    its buffers: UsageError when it does not or when the scene cannot build its state from ``params``."""
-    try:
-        resources.check(scene.simulation, params, runtime.device)
-    except resources.ResourceError as err:
-        raise UsageError(str(err)) from None
-    if announce:
-        print(f"ugpcl: {scene.name} on {runtime.label}", file=sys.stderr)
-    try:
-        sim = scene.simulation(runtime, params, seed)
-    except ParamError as err:
-        raise UsageError(str(err)) from None
-    sim.scene = scene
-    return sim
-
-
-def record(sim: Simulation, state: dict, dt: float) -> dict:
-    """What a .npz holds: the state and how it was made."""
-    return {
-        **state,
-        "params": np.array(sim.params.to_json(dt=dt)),
-        "scene": np.array(sim.scene.name),
-        "seed": np.int64(sim.seed),
-        "steps": np.int64(sim.steps),
-        "sim_time": np.float64(sim.time),
-        "device": np.array(sim.runtime.label),
-        "ugpcl_version": np.array(__version__),
-    }
-
-
-def write_pictures(sim: Simulation, mesh: Path | None, png: Path | None, size: tuple[int, int], log=None) -> None:
-    """The mesh and the PNG of a finished run, each written whole; ``log`` is told each file written."""
-    if mesh:
-        with written_whole(mesh) as partial:
-            sim.export_mesh(partial)
-        if log:
-            log(f"wrote {mesh}")
-    if png:
-        from .viewer.offscreen import render_png
-
-        with written_whole(png) as partial:
-            render_png(sim.scene, sim, partial, size)
-        if log:
-            log(f"wrote {png}")
-
-
 def cmd_sweep(args) -> int:
     from .sweep import INDEX, parse_grid, parse_seeds, plan, sweep
 
@@ -574,24 +238,6 @@ def cmd_sweep(args) -> int:
     counts = sweep(jobs, out, args.scheduler, args.device, args.quiet)
     print(f"{out / INDEX}: {counts['ok']} ok, {counts['failed']} failed, {counts['skipped']} finished before")
     return RUNTIME_ERROR if counts["failed"] else 0
-
-
-def _params(scene: Scene, overrides: dict):
-    try:
-        return scene.params(**overrides)
-    except ValueError as err:  # a range or cross-field check of Params
-        raise UsageError(str(err)) from None
-
-
-def parse_size(text: str, option: str = "--png-size") -> tuple[int, int]:
-    """``WxH`` (16..8192 each) as (width, height); UsageError naming ``option`` otherwise."""
-    try:
-        w, h = (int(v) for v in text.lower().split("x"))
-        if not (16 <= w <= 8192 and 16 <= h <= 8192):
-            raise ValueError
-    except ValueError:
-        raise UsageError(f"{option} must be WxH with 16..8192 each, got {text!r}") from None
-    return w, h
 
 
 def bench_records(device: str, chapter: str, date: str, rows: list[dict]) -> list[dict]:
@@ -639,15 +285,6 @@ def cmd_bench(args) -> int:
 
 
 # }}}
-
-
-class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
-    """Shows ``(default: X)`` once, and not at all for options whose absence is their default (None, False)."""
-
-    def _get_help_string(self, action) -> str:
-        if action.default is None or action.default is False or "default:" in (action.help or ""):
-            return action.help or ""
-        return super()._get_help_string(action)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -756,15 +393,6 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def report(prog: str, err: BaseException) -> str:
-    """One line for an error that ends a run: its message's first line, with the exception's kind where the
-    message alone would not say what failed."""
-    text = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
-    if isinstance(err, cl.Error | MemoryError | ArithmeticError):
-        text = f"{type(err).__name__}: {text}"
-    return f"{prog}: error: {text}"
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -796,14 +424,6 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
-
-
-def quiet_broken_pipe() -> int:
-    """The reader of our stdout went away (``ugpcl params boids | head -1``): stop quietly. stdout is pointed at
-    /dev/null so that Python's flush at exit does not raise again."""
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(devnull, sys.stdout.fileno())
-    return 0
 
 
 if __name__ == "__main__":

@@ -18,9 +18,9 @@ import re
 import sys
 from pathlib import Path
 
-from .cli import format_table
 from .registry import get, scenes
 from .scene import Animation
+from .table import format_table
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs" / "chapters").glob("*.md"))]
@@ -195,7 +195,7 @@ def record_animation(runtime, name: str, path: Path, anim: Animation | None = No
     from ugpcl.viewer.record import Recorder
     from ugpcl.viewer.views import create_view
 
-    from .cli import run_steps
+    from .run import run_steps
 
     scene = get(name)
     anim = anim or scene.animation

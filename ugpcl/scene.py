@@ -99,7 +99,7 @@ class Params:
             raise AssertionError(f"{type(self).__qualname__}.limits lacks {rule!r}")
         left, op, right = LIMIT.fullmatch(rule).groups()
         named = [n for n in self.names() if re.search(rf"\b{n}\b", rule)]
-        values = ", ".join(f"{n}={_show(getattr(self, n))}" for n in named)
+        values = ", ".join(f"{n}={show_value(getattr(self, n))}" for n in named)
         return ValueError(f"{left} must be {op} {right}, got {values}" + (f" ({result})" if result else ""))
 
     @staticmethod
@@ -199,11 +199,11 @@ class Params:
     @classmethod
     def table(cls) -> list[dict[str, str]]:
         """One row per field: name, default, range and the attribute docstring (for ``ugpcl params`` and docs)."""
-        docs = _field_docs(cls)
+        docs = field_docs(cls)
         return [
             {
                 "name": f.name,
-                "default": _show(f.default),
+                "default": show_value(f.default),
                 "range": _describe_range(f.metadata) if f.metadata else "any",
                 "meaning": docs.get(f.name, ""),
             }
@@ -223,15 +223,16 @@ def _parse_one(kind, text: str):
     return text
 
 
-def _show(value) -> str:
+def show_value(value) -> str:
+    """A parameter value as the tables, messages and the viewer show it: floats short (%g), tuples in parentheses."""
     if isinstance(value, tuple):
-        return "(" + ", ".join(_show(v) for v in value) + ")"
+        return "(" + ", ".join(show_value(v) for v in value) + ")"
     if isinstance(value, float):
         return f"{value:g}"
     return str(value)
 
 
-def _field_docs(cls) -> dict[str, str]:
+def field_docs(cls) -> dict[str, str]:
     """Attribute docstrings (the string literal under each field) of a dataclass and its bases."""
     docs: dict[str, str] = {}
     for klass in reversed(cls.__mro__):
@@ -437,7 +438,7 @@ class Scene:
         rows = self.simulation.Params.table()
         for row in rows:
             if row["name"] in self.defaults:
-                row["default"] = _show(self.defaults[row["name"]])
+                row["default"] = show_value(self.defaults[row["name"]])
         return rows
 
     def create(self, runtime, seed: int = 0, **overrides) -> Simulation:

@@ -1,7 +1,7 @@
 """``ugpcl sweep``: the runs of a parameter grid times a list of seeds as Dask tasks, on a local cluster or on one
 started elsewhere (``dask scheduler`` + ``dask worker ADDRESS``).
 
-Each task is one ``ugpcl run``: the same simulation, the same .npz (``cli.record``), written whole. The driver keeps
+Each task is one ``ugpcl run``: the same simulation, the same .npz (``io.record``), written whole. The driver keeps
 ``DIR/index.csv``, one row per run (its parameters, seed, device, status, error, wall time, summary stats),
 rewritten whole after every result: a sweep stopped at any point (Ctrl-C, a lost worker, a lost driver) keeps every
 finished run, and running it again computes only the runs that are not finished.
@@ -20,19 +20,9 @@ import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .cli import (
-    MAX_SEED,
-    UsageError,
-    _params,
-    _progress,
-    open_simulation,
-    record,
-    report,
-    run_steps,
-    write_npz,
-    write_pictures,
-    written_whole,
-)
+from .io import UsageError, record, write_npz, written_whole
+from .options import MAX_SEED, scene_params
+from .run import open_simulation, progress, report, run_steps, write_pictures
 from .runtime import DeviceError, Runtime, choose_device
 from .scene import Scene
 
@@ -130,7 +120,7 @@ def plan(
     jobs = []
     for values in itertools.product(*grid.values()):
         changed = {**sets, **dict(zip(grid, values, strict=True))}
-        params = _params(scene, changed)
+        params = scene_params(scene, changed)
         for seed in seeds:
             name = run_name(dict(zip(grid, values, strict=True)), seed)
             jobs.append(
@@ -161,7 +151,7 @@ def plan(
 
 def run_job(job: Job) -> dict:
     """Run one job on this worker and return its index row; a failure becomes a row with the error's line
-    (``cli.report``) rather than an exception, so that it does not stop the other tasks."""
+    (``run.report``) rather than an exception, so that it does not stop the other tasks."""
     from .registry import get
 
     start = time.perf_counter()
@@ -272,7 +262,7 @@ def sweep(jobs: list[Job], out: Path, scheduler: str | None, device: str | None,
         # keys of this sweep's own: a cluster that still holds an earlier sweep's results must run the job again
         by_key = {f"ugpcl-sweep-{job.name}-{time.time_ns()}": job for job in todo}
         futures = as_completed(client.map(run_job, list(by_key.values()), key=list(by_key)))
-        with _progress(f"sweep {todo[0].scene}", len(todo), quiet) as progress:
+        with progress(f"sweep {todo[0].scene}", len(todo), quiet) as bar:
             for future in futures:
                 job = by_key[future.key]
                 try:
@@ -289,7 +279,7 @@ def sweep(jobs: list[Job], out: Path, scheduler: str | None, device: str | None,
                 if row["status"] != "ok":
                     print(row["error"], file=sys.stderr, flush=True)
                 write_index(index, jobs, rows)
-                progress.update()
+                bar.update()
     finally:
         client.close()
         if cluster is not None:

@@ -21,19 +21,11 @@ import moderngl_window as mglw
 from imgui_bundle import imgui
 
 from ugpcl import resources
-from ugpcl.cli import (
-    Diverged,
-    HelpFormatter,
-    UsageError,
-    Watch,
-    parse_sets,
-    parse_size,
-    quiet_broken_pipe,
-    scene_named,
-    written_whole,
-)
+from ugpcl.io import UsageError, written_whole
+from ugpcl.options import HelpFormatter, parse_sets, parse_size, quiet_broken_pipe, scene_named
+from ugpcl.run import Diverged, Watch
 from ugpcl.runtime import BuildError, DeviceError, Runtime
-from ugpcl.scene import _show
+from ugpcl.scene import show_value
 
 from .gl import TextOverlay, read_pixels, save_png
 from .imgui_renderer import ImguiRenderer
@@ -185,7 +177,9 @@ class ViewerWindow(mglw.WindowConfig):
         ]
         if self.sized:
             book = self.scene.params()
-            sizes = ", ".join(f"{k}={_show(v)} (book {_show(getattr(book, k))})" for k, v in self.sized.items())
+            sizes = ", ".join(
+                f"{k}={show_value(v)} (book {show_value(getattr(book, k))})" for k, v in self.sized.items()
+            )
             lines.append(f"sized for the CPU: {sizes}")
         return lines
 
@@ -244,7 +238,7 @@ class ViewerWindow(mglw.WindowConfig):
         """A widget changed: the panel validates it, applies it (live) or keeps it pending; stderr says which."""
         if self.panel.set(widget, value):
             how = "live" if widget.live else "pending: reset to apply"
-            print(f"ugpcl-view: {widget.name} = {_show(self.panel.value(widget.name))} ({how})", file=sys.stderr)
+            print(f"ugpcl-view: {widget.name} = {show_value(self.panel.value(widget.name))} ({how})", file=sys.stderr)
 
     def apply_params(self) -> None:
         changes = _assignments(self.panel.pending)
@@ -461,7 +455,7 @@ def _stamp() -> str:
 
 
 def _assignments(values: dict) -> str:
-    return " ".join(f"{k}={_show(v)}" for k, v in values.items())
+    return " ".join(f"{k}={show_value(v)}" for k, v in values.items())
 
 
 class NoDisplay(RuntimeError):

@@ -13,7 +13,7 @@ import typing
 from dataclasses import dataclass
 
 from ugpcl import resources
-from ugpcl.scene import Params, _field_docs
+from ugpcl.scene import Params, field_docs
 
 LOG_SPAN = 1000.0
 """A range this many times wider than the field's default (or 1 where that is 0), or whose ends differ by this
@@ -92,7 +92,7 @@ def widget_for(f: dataclasses.Field, kind, default, doc: str) -> Widget:
 def widgets(defaults: Params) -> list[Widget]:
     """One widget per field of ``defaults``' class, in declaration order (the order of ``ugpcl params``)."""
     cls = type(defaults)
-    hints, docs = typing.get_type_hints(cls), _field_docs(cls)
+    hints, docs = typing.get_type_hints(cls), field_docs(cls)
     return [
         widget_for(f, hints[f.name], getattr(defaults, f.name), docs.get(f.name, "")) for f in dataclasses.fields(cls)
     ]

@@ -3,7 +3,7 @@
 
 The MP4 goes through imageio-ffmpeg, whose wheel ships an ffmpeg binary (a fresh machine needs no system ffmpeg).
 The WebP (Pillow) is a looping animation for web pages: its frames are kept in memory and encoded when the
-recording stops, so it suits short clips. Every file is written whole (``ugpcl.cli.written_whole``): the video
+recording stops, so it suits short clips. Every file is written whole (``ugpcl.io.written_whole``): the video
 under a temporary name renamed when the recording stops, each PNG on its own; a recording that fails leaves no
 half-written video behind.
 """
@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from ugpcl.cli import written_whole
+from ugpcl.io import written_whole
 
 from .gl import save_png
 
