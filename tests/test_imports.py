@@ -162,7 +162,7 @@ def test_the_graph_is_read():
     edges = graph()
     assert {"ugpcl", "ugpcl.cli", "ugpcl.scenes", "ugpcl.scenes.boids", "ugpcl.viewer.app"} <= set(edges)
     assert "ugpcl.viewer.views.boids" in edges and "ugpcl.clkernels" in edges
-    assert "ugpcl.runtime" in edges["ugpcl.scenes.boids"]  # from ..runtime import ...
+    assert "ugpcl.scene" in edges["ugpcl.scenes.boids"]  # from ..scene import ...
     assert "ugpcl.scenes" in edges["ugpcl.registry"]  # from . import scenes: the subpackage
     assert "ugpcl.viewer.offscreen" in edges["ugpcl"]  # inside a function of ugpcl/__init__.py
     assert "ugpcl.runtime" in edges["ugpcl.viewer.offscreen"]  # from ugpcl.runtime import ...: absolute
