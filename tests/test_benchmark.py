@@ -124,7 +124,7 @@ def test_grid_pairs_are_the_pairs_of_neighbouring_cells():
 
 
 def test_star_glow_frame_bytes_follow_the_passes():
-    from ugpcl.scenes.star_glow import TEXEL_BYTES, frame_bytes
+    from ugpcl.bench.star_glow import TEXEL_BYTES, frame_bytes
 
     W, H, w, h, n = 64, 32, 16, 8, 3
     # iteration 1: Brightness 5, streaks (book: per direction 2 + 3, comp cleared 1; fused: bright in, comp out),

@@ -13,19 +13,15 @@ from helpers import foreground, run_cli
 from scipy.ndimage import maximum_filter, minimum_filter
 
 from ugpcl.geometry.mesh import is_watertight, normals_agree_with_winding, signed_volume, weld
-from ugpcl.registry import get
-from ugpcl.scenes.multiplane_projection import (
-    MARCH_STEPS,
-    MAX_DISTANCE,
+from ugpcl.geometry.multiplane_projection import (
     SHAPE_DTYPE,
-    SURFACE_EPSILON,
     WORLD_DTYPE,
-    Params,
-    Simulation,
     face_cameras,
     lens_shift_projection,
     world_record,
 )
+from ugpcl.registry import get
+from ugpcl.scenes.multiplane_projection import MARCH_STEPS, MAX_DISTANCE, SURFACE_EPSILON, Params, Simulation
 
 # {{{ the room of the spec (section 3), written out: Unity axes, the book's face order, then the ceiling
 
@@ -386,15 +382,15 @@ def test_without_the_ceiling_only_upward_rays_through_it_are_black(runtime, seed
 # {{{ params, state, mesh, CLI
 
 
+# ranges and limits at their edges: tests/test_params.py checks them for every field of every scene
 @pytest.mark.parametrize(
     "overrides, message",
     [
-        ({"eye": (0.0, 1.0, 5.0)}, "distance from eye to every face of room_size must be >= 0.05 m, got room_size="),
-        ({"eye": (0.0, 0.0499, 0.0)}, "eye=\\(0, 0.0499, 0\\) \\(0.0499 m\\)"),
+        (  # a wall, not the floor that test_params's edge case moves to: the margin shown is the smallest
+            {"eye": (0.0, 1.0, 5.0)},
+            "distance from eye to every face of room_size must be >= 0.05 m, got room_size=.*\\(0, 1, 5\\) \\(0 m\\)$",
+        ),
         ({"faces": 4}, "faces must be one of 5\\|6"),
-        ({"face_resolution": (0, 16)}, "face_resolution must be in \\[1, 8192\\]"),
-        ({"world_scale": 0.0}, "world_scale must be in \\(0.0, 10000.0\\]"),
-        ({"view_pitch": 90.0}, "view_pitch must be in \\[-89.0, 89.0\\]"),
         ({"room_size": (20.0, float("inf"), 10.0)}, "room_size must be a finite number"),
     ],
 )

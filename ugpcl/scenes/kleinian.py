@@ -19,13 +19,11 @@ of centre samples is not uniform; ``precision=double`` builds the kernels in dou
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 
 import numpy as np
 import pyopencl.cltypes as cltypes
 
-from ..bench.timing import seconds_per_call
 from ..resources import Allocation
 from ..scene import Animation, PreviewCheck, Scene, param
 from ..scene import Params as BaseParams
@@ -87,29 +85,6 @@ def clip_at(time: float) -> dict[str, float]:
     """scale, circle_x, circle_y, offset_x, offset_y of the looping Animator clip at ``time``."""
     local = time % CLIP_LENGTH
     return {name: flat_curve(CLIP_TIMES, keys, local) for name, keys in CLIP.items()}
-
-
-# }}}
-
-# {{{ Figure 2.3: the lines of the algorithm
-
-
-def largest_disk(u: float) -> tuple[tuple[float, float], float]:
-    """(centre, radius) of the largest disk: the line y = u inverted in the unit circle, tangent to y = 0 at 0.
-    Its points are exactly those that transform a sends below y = 0 (book 2.5.2)."""
-    return (0.0, 0.5 / u), 0.5 / u
-
-
-def line3(x, u: float, v: float):
-    """y of Line3 (float64), the formula of include/kleinian.h."""
-    d = np.asarray(x, float) + v / 2
-    return u / 2 + np.sign(v) * (2 * u - 1.95) / 4 * np.sign(d) * (1 - np.exp(-(7.2 - (1.95 - u) * 15) * np.abs(d)))
-
-
-def parallelogram(u: float, v: float) -> np.ndarray:
-    """Corners (4, 2) of the central parallelogram: Line2 from (-1, 0) to (-1 - v, u), Line1 from (1, 0) to
-    (1 - v, u) (book 2.5.1, Figure 2.3)."""
-    return np.array([(-1.0, 0.0), (1.0, 0.0), (1.0 - v, u), (-1.0 - v, u)])
 
 
 # }}}
@@ -280,7 +255,7 @@ class Simulation(BaseSimulation):
             self.params = saved
 
     def _render(self, width: int, height: int, frame: dict | None) -> dict[str, np.ndarray]:
-        rgba, hit, iters, centre = self._launch(width, height, frame)
+        rgba, hit, iters, centre = self.enqueue_frame(width, height, frame)
         out = {
             "rgba": rgba.get().reshape(height, width, 4),
             "hit": hit.get().reshape(height, width),
@@ -290,20 +265,20 @@ class Simulation(BaseSimulation):
             out["centre_hit"] = centre.get().reshape(height, width)
         return out
 
-    def _launch(self, width: int, height: int, frame: dict | None = None) -> tuple:
-        """Enqueue PixelCentreHits (with adaptive) and RenderKleinian; the frame's device arrays, nothing read."""
+    def enqueue_frame(self, width: int, height: int, frame: dict | None = None) -> tuple:
+        """Enqueue PixelCentreHits (with adaptive) and RenderKleinian, built for the precision and a work-group
+        both run; the frame's device arrays (rgba, hit, iters, centre_hit), nothing read."""
         p = self.params
         rgba, hit, iters, centre = self._frame_buffers(width, height)
         size, program = self.runtime.fitted_program(
             "kleinian", ("PixelCentreHits", "RenderKleinian"), LOCAL_SIZE, dims=2,
             KLEINIAN_DOUBLE=int(p.precision == "double"),
         )  # fmt: skip
-        gsize = tuple(-(-n // size) * size for n in (width, height))
         args = self.view_args(width, height, frame)
         if p.adaptive:
-            program.kernel("PixelCentreHits")(gsize, (size, size), centre, iters, *args)
-        program.kernel("RenderKleinian")(
-            gsize, (size, size), rgba, hit, iters, centre, np.int32(p.adaptive),
+            program.kernel("PixelCentreHits").over((width, height), (size, size), centre, iters, *args)
+        program.kernel("RenderKleinian").over(
+            (width, height), (size, size), rgba, hit, iters, centre, np.int32(p.adaptive),
             cltypes.make_float4(*p.hit_color), cltypes.make_float4(*p.back_color), *args,
         )  # fmt: skip
         return rgba, hit, iters, centre
@@ -344,98 +319,6 @@ class Simulation(BaseSimulation):
             "hit fraction": float(state["hit"].mean() / samples),
             "mean iterations": float(state["iters"].mean()),
         }
-
-
-# {{{ bench
-
-REFERENCE_SAMPLES = 256
-"""Samples per pixel of the reference image the anti-aliasing rows are measured against."""
-
-
-ITERATION_FLOPS = 40
-"""One iteration of jos_kleinian (include/kleinian.h) in float: the shear offset |v| / u * z.y (2) added and taken
-away (2), kleinian_wrap (5: floor not counted), kleinian_line3 (16: exp 1, sign and abs 0), the point symmetry
-(2, counted as if always taken), kleinian_trans_a (dot 3, two divisions and the translation 4) and the 2-cycle test
-length(z - llz) (6: sqrt 1). Flop convention of the benches: an FMA is 2, sqrt, exp and a division 1 each,
-compares 0. The per-pixel set-up and colour (about 30) are left out."""
-
-
-def bench(runtime, sizes=None) -> list[dict]:
-    """Frame time, Mpixel-samples/s and mean iterations (of sample 0) of RenderKleinian at t = (1.94, 0.02) (the
-    book's "interesting" shape; iteration 50, the scenes' value) for W x 9W/16 frames with 1 and 20 samples; then
-    anti-aliasing at equal error: RMS error against a 256-sample image, uniform vs adaptive supersampling (samples
-    spent per pixel and time) at the smallest size (320 x 180 on a CPU). --size gives widths. iteration flop/s:
-    ITERATION_FLOPS x the iterations of sample 0 of every pixel (standing for every sample) x samples per second."""
-    widths = sizes or ([640, 1920, 3840] if runtime.is_gpu else [640])
-    rows = []
-    for width in widths:
-        height = width * 9 // 16
-        for samples in (1, 20):
-            mode = 0 if samples == 1 else 1
-            sim = Simulation(runtime, Params(width=width, height=height, u=1.94, v=0.02, mode=mode, samples=samples))
-            image = sim.render_kleinian()  # also the warm-up: the build
-            # the kernels alone: the frame stays on the device, as the viewer's would
-            launch = functools.partial(sim._launch, width, height)
-            seconds = seconds_per_call(launch, runtime.queue, max_calls=50)
-            rows.append(
-                {
-                    "frame": f"{width}x{height}",
-                    "AA": "none" if samples == 1 else "uniform",
-                    "samples": samples,
-                    "ms/frame": seconds * 1e3,
-                    "Mpixel-samples/s": width * height * samples / seconds / 1e6,
-                    "mean iterations": float(image["iters"].mean()),
-                    "iteration flop/s": ITERATION_FLOPS * float(image["iters"].sum()) * samples / seconds,
-                }
-            )
-    rows += _aa_rows(runtime, widths[0] if runtime.is_gpu or sizes else 320)  # a 256-sample frame is slow on a CPU
-    return rows
-
-
-def _aa_rows(runtime, width: int) -> list[dict]:
-    """Uniform vs adaptive supersampling in mode 1, error against the reference, per sample count."""
-    height = width * 9 // 16
-    sim = Simulation(runtime, Params(width=width, height=height, u=1.94, v=0.02, mode=1))
-    reference = sim.render_kleinian(samples=REFERENCE_SAMPLES)["rgba"]
-    rows = []
-    for samples in (4, 8, 16, 32, 64):
-        for adaptive in (False, True):
-            image = {}
-
-            def render(samples=samples, adaptive=adaptive, image=image):
-                image.update(sim.render_kleinian(samples=samples, adaptive=adaptive))
-
-            seconds = seconds_per_call(render, runtime.queue, min_seconds=0.5, max_calls=10)
-            # adaptive: one centre sample everywhere, then `samples` where the neighbourhood is not uniform
-            spent = 1 + nonuniform(image["centre_hit"]).mean() * samples if adaptive else samples
-            error = float(np.sqrt(np.mean((image["rgba"][..., :3] - reference[..., :3]) ** 2)))
-            rows.append(
-                {
-                    "frame": f"{width}x{height}",
-                    "AA": "adaptive" if adaptive else "uniform",
-                    "samples": samples,
-                    "ms/frame": seconds * 1e3,
-                    "samples/pixel": float(spent),
-                    "RMS error": error,
-                    "iteration flop/s": ITERATION_FLOPS * float(image["iters"].sum()) * float(spent) / seconds,
-                }
-            )
-    return rows
-
-
-def nonuniform(centre_hit: np.ndarray) -> np.ndarray:
-    """Pixels whose 3x3 neighbourhood (clamped at the edges) of centre samples is not uniform: those that adaptive
-    supersampling samples (the rule of RenderKleinian)."""
-    padded = np.pad(centre_hit, 1, mode="edge")
-    h, w = centre_hit.shape
-    out = np.zeros(centre_hit.shape, bool)
-    for dy in (-1, 0, 1):
-        for dx in (-1, 0, 1):
-            out |= padded[1 + dy : 1 + dy + h, 1 + dx : 1 + dx + w] != centre_hit
-    return out
-
-
-# }}}
 
 
 SCENES = [

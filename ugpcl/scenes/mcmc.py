@@ -10,22 +10,19 @@ it at |x - p_i|^2 <= 25, ``legacy`` is the book's estimate from 500 random latti
 trilinearly in a precomputed ``DensityGrid``, ``gaussian`` is an analytic test target. ``mode=rejection``:
 ``RejectionSequence`` keeps uniform points whose clamped noise exceeds a threshold. ``mode=pi``: ``MonteCarloPi``.
 
-Every random number comes from Philox (clkernels/include/random.h) by what it is for, so the numpy twin here
-(``noise_numpy``, ``density_numpy``, ``sequence_numpy``) redraws any chain. The simulation samples everything at
+Every random number comes from Philox (clkernels/include/random.h) by what it is for, so the tests' numpy twin
+(tests/reference/mcmc.py) redraws any chain. The simulation samples everything at
 reset; ``step`` only advances the clock that reveals chains (book: one chain per 0.1 s) and rejection batches.
 """
 
 from __future__ import annotations
 
-import logging
 from dataclasses import dataclass
 
 import numpy as np
 import pyopencl.cltypes as cltypes
 
-from ..bench.timing import seconds_per_call
 from ..random import key_of_seed, philox4x32, uniform01
-from ..runtime import round_up
 from ..scene import Animation, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
@@ -163,16 +160,28 @@ class Simulation(BaseSimulation):
         self.key_arg = cltypes.make_uint2(*(int(k) for k in self.key))
         self.T = noise_table(p.noise_T, self.seed)
         self.T_buffer = rt.to_device(self.T)
-        self.grid = None
         self.prepare()
+        self.grid = None
+        if p.density == "grid":  # Sequence and DensityAt (the view's slice, in every mode) read it
+            self.density_grid()
         if p.mode == "metropolis":
-            if p.density == "grid":
-                self.density_grid()
+            self.chain_buffers()
             self.sequence()
         elif p.mode == "rejection":
             self.rejection_sequence()
         else:
             self.monte_carlo_pi()
+
+    def chain_buffers(self) -> None:
+        """What Sequence writes per chain: the emitted states (C, S, 3), accepted steps, reset tries, the start's
+        density and the palette entry."""
+        p, rt = self.params, self.runtime
+        C, S = p.chains, p.samples
+        self.samples_buffer = rt.empty((C, S, 3), np.float32)
+        self.accepted = rt.empty(C, np.uint32)
+        self.reset_tries = rt.empty(C, np.uint32)
+        self.init_density = rt.empty(C, np.float32)
+        self.palette = rt.empty(C, np.uint8)
 
     # {{{ kernels, in the host's order
 
@@ -180,8 +189,7 @@ class Simulation(BaseSimulation):
         """Prepare: W[z, y, x] = noise(x, y, z) on the L^3 lattice."""
         L = self.params.L
         self.W = self.runtime.empty((L, L, L), np.float32)
-        size = round_up(L, 4)
-        self.program.kernel("Prepare")((size, size, size), (4, 4, 4), self.W, np.int32(L), self.T_buffer)
+        self.program.kernel("Prepare").over((L, L, L), (4, 4, 4), self.W, np.int32(L), self.T_buffer)
 
     def grid_geometry(self) -> tuple[int, float, float]:
         """(M, origin, oversample) of Dgrid: M^3 points from origin with spacing 1 / oversample."""
@@ -192,9 +200,8 @@ class Simulation(BaseSimulation):
         """DensityGrid: the exact density on the grid density=grid reads."""
         M, origin, oversample = self.grid_geometry()
         self.grid = self.runtime.empty((M, M, M), np.float32)
-        size = round_up(M, 4)
-        self.program.kernel("DensityGrid")(
-            (size, size, size),
+        self.program.kernel("DensityGrid").over(
+            (M, M, M),
             (4, 4, 4),
             self.W,
             np.int32(self.params.L),
@@ -207,8 +214,6 @@ class Simulation(BaseSimulation):
     def _density_args(self) -> tuple:
         p = self.params
         M, origin, oversample = self.grid_geometry()
-        if p.density == "grid" and self.grid is None:
-            self.density_grid()
         return (
             np.int32(DENSITY_MODES.index(p.density)),
             self.grid if p.density == "grid" else self.W,
@@ -222,14 +227,8 @@ class Simulation(BaseSimulation):
 
     def sequence(self, batch: int = 0) -> None:
         """Sequence: every chain's Reset, burn-in and emitted states (batch: another set of random numbers)."""
-        p, rt = self.params, self.runtime
+        p = self.params
         C, S = p.chains, p.samples
-        if getattr(self, "samples_buffer", None) is None or self.samples_buffer.shape != (C, S, 3):
-            self.samples_buffer = rt.empty((C, S, 3), np.float32)
-            self.accepted = rt.empty(C, np.uint32)
-            self.reset_tries = rt.empty(C, np.uint32)
-            self.init_density = rt.empty(C, np.float32)
-            self.palette = rt.empty(C, np.uint8)
         lc = p.cholesky()
         cholesky = cltypes.make_float8(lc[0, 0], lc[1, 0], lc[1, 1], lc[2, 0], lc[2, 1], lc[2, 2], 0.0, 0.0)
         self.program.kernel("Sequence").over(
@@ -403,308 +402,6 @@ class Simulation(BaseSimulation):
         counters = np.column_stack([g, d, np.zeros_like(g), np.full_like(g, PURPOSE_PI)]).astype(np.uint32)
         u = uniform01(philox4x32(counters, self.key)).reshape(-1, 2)[:count]
         return u, (u * u).sum(axis=1, dtype=np.float32) <= np.float32(1.0)
-
-
-# {{{ numpy twin (float32 noise, float64 density; the same Philox draws as the kernels)
-
-
-def _fastfloor(n: np.ndarray) -> np.ndarray:
-    t = np.trunc(n).astype(np.int32)
-    return np.where(n > 0, t, t - 1)
-
-
-def noise_numpy(points, T) -> np.ndarray:
-    """Perlin's reference simplex noise at each point (n, 3), in float32 as the kernel computes it."""
-    F = np.float32
-    p = np.asarray(points, F).reshape(-1, 3)
-    T = np.asarray(T, np.int64)
-    x, y, z = p[:, 0], p[:, 1], p[:, 2]
-    s = (x + y + z) * F(0.333333333)
-    i, j, k = _fastfloor(x + s), _fastfloor(y + s), _fastfloor(z + s)
-    s = (i + j + k).astype(F) * F(0.166666667)
-    u, v, w = x - i.astype(F) + s, y - j.astype(F) + s, z - k.astype(F) + s
-    A = np.zeros((3, len(p)), np.int32)
-    hi = np.where(u >= w, np.where(u >= v, 0, 1), np.where(v >= w, 1, 2))
-    lo = np.where(u < w, np.where(u < v, 0, 1), np.where(v < w, 1, 2))
-    rows = np.arange(len(p))
-
-    def bit(n, b):
-        return (n >> b) & 1
-
-    def shuffle(a, b, c):
-        h = np.zeros(len(p), np.int64)
-        for B in range(8):
-            q, r, t = ((a, b, c), (b, c, a), (c, a, b))[B % 3]
-            h += T[bit(q, B) << 2 | bit(r, B) << 1 | bit(t, B)]
-        return h
-
-    def corner(a):
-        s = (A[0] + A[1] + A[2]).astype(F) * F(0.166666667)
-        X, Y, Z = u - A[0].astype(F) + s, v - A[1].astype(F) + s, w - A[2].astype(F) + s
-        t = F(0.6) - X * X - Y * Y - Z * Z
-        h = shuffle(i + A[0], j + A[1], k + A[2])
-        A[a, rows] += 1
-        b5, b4, b3, b2, b = (h >> 5) & 1, (h >> 4) & 1, (h >> 3) & 1, (h >> 2) & 1, h & 3
-        P = np.where(b == 1, X, np.where(b == 2, Y, Z))
-        Q = np.where(b == 1, Y, np.where(b == 2, Z, X))
-        R = np.where(b == 1, Z, np.where(b == 2, X, Y))
-        P, Q, R = np.where(b5 == b3, -P, P), np.where(b5 == b4, -Q, Q), np.where(b5 != (b4 ^ b3), -R, R)
-        t2 = t * t
-        value = F(8.0) * t2 * t2 * (P + np.where(b == 0, Q + R, np.where(b2 == 0, Q, R)))
-        return np.where(t < 0, F(0.0), value).astype(F)
-
-    n = corner(hi)
-    n = n + corner(3 - hi - lo)
-    n = n + corner(lo)
-    return n + corner(np.zeros_like(hi))
-
-
-def lattice_numpy(L: int, T) -> np.ndarray:
-    """W[z, y, x] = noise(x, y, z): the twin of Prepare."""
-    z, y, x = np.meshgrid(np.arange(L), np.arange(L), np.arange(L), indexing="ij")
-    return noise_numpy(np.column_stack([x.ravel(), y.ravel(), z.ravel()]), T).reshape(L, L, L)
-
-
-def density_numpy(W: np.ndarray, points, chunk: int = 4096) -> np.ndarray:
-    """density=exact in float64: sum over lattice points with |x - p|^2 <= 25 of exp(-|x - p|^2) W[p]."""
-    W = np.asarray(W, np.float64)
-    L = W.shape[0]
-    pts = np.asarray(points, np.float64).reshape(-1, 3)
-    offsets = np.arange(11)  # ceil(x - 5) .. ceil(x - 5) + 10 covers every |d| <= 5
-    out = np.empty(len(pts))
-    for start in range(0, len(pts), chunk):
-        x = pts[start : start + chunk]
-        idx = np.ceil(x - TRUNCATION_RADIUS)[:, :, None] + offsets  # (n, 3 axes, 11)
-        d2 = (x[:, :, None] - idx) ** 2
-        valid = (idx >= 0) & (idx <= L - 1)
-        ii = np.clip(idx, 0, L - 1).astype(np.intp)
-        w = W[ii[:, 2, :, None, None], ii[:, 1, None, :, None], ii[:, 0, None, None, :]]  # (n, z, y, x)
-        r2 = d2[:, 2, :, None, None] + d2[:, 1, None, :, None] + d2[:, 0, None, None, :]
-        mask = valid[:, 2, :, None, None] & valid[:, 1, None, :, None] & valid[:, 0, None, None, :]
-        mask &= r2 <= TRUNCATION_RADIUS**2
-        out[start : start + chunk] = np.where(mask, np.exp(-r2) * w, 0.0).sum(axis=(1, 2, 3))
-    return out
-
-
-def _draw(chains: np.ndarray, index, batch: int, purpose: int, key) -> np.ndarray:
-    c = np.asarray(chains, np.uint32)
-    counters = np.column_stack(
-        [c, np.broadcast_to(np.asarray(index, np.uint32), c.shape), np.full_like(c, batch), np.full_like(c, purpose)]
-    )
-    return philox4x32(counters, key)
-
-
-def _open01(bits: np.ndarray) -> np.ndarray:
-    return ((bits >> np.uint32(9)).astype(np.float32) + np.float32(0.5)) * np.float32(2.0**-23)
-
-
-def _box_muller(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    F = np.float32
-    return np.sqrt(F(-2.0) * np.log(_open01(a))) * np.sin(F(2.0 * np.pi) * _open01(b))
-
-
-def _legacy_numpy(W, x, picks, chains, index, batch, key) -> np.ndarray:
-    L = W.shape[0]
-    count = L**3
-    total = np.zeros(len(x))
-    for m in range(0, picks, 4):
-        bits = _draw(chains, index, batch, PURPOSE_LEGACY + m // 4, key)
-        for n in range(min(4, picks - m)):
-            ids = np.floor(uniform01(bits[:, n]) * np.float32(count - 1)).astype(np.int64)
-            p = np.column_stack([ids % L, (ids // L) % L, ids // (L * L)])
-            total += np.exp(-((x - p) ** 2).sum(axis=1)) * W.reshape(-1)[ids]
-    return total
-
-
-def _grid_numpy(G, geometry, x) -> np.ndarray:
-    M, origin, oversample = geometry
-    F = np.float32
-    g = (np.clip(x.astype(F), F(-1e6), F(1e6)) - F(origin)) * F(oversample)
-    f = np.floor(g)
-    i = f.astype(np.int64)
-    inside = ((i >= 0) & (i < M - 1)).all(axis=1)
-    i = np.clip(i, 0, M - 2)
-    t = (g - f).astype(np.float64)
-    out = np.zeros(len(x))
-    for dz in (0, 1):
-        for dy in (0, 1):
-            for dx in (0, 1):
-                weight = (
-                    (t[:, 0] if dx else 1 - t[:, 0])
-                    * (t[:, 1] if dy else 1 - t[:, 1])
-                    * (t[:, 2] if dz else 1 - t[:, 2])
-                )
-                out += weight * G[i[:, 2] + dz, i[:, 1] + dy, i[:, 0] + dx]
-    return np.where(inside, out, 0.0)
-
-
-def sequence_numpy(params: Params, W, key, chains, batch: int = 0, steps: int | None = None, grid=None) -> dict:
-    """The twin of Sequence for the chain ids ``chains``: the same Philox draws, float32 proposals, float64 densities.
-    ``steps`` cuts the chain short (burn-in counts); ``grid`` is the device's Dgrid for density=grid. Returns the
-    arrays Sequence writes, samples (n, S', 3) holding the emitted states within ``steps``."""
-    p = params
-    W = np.asarray(W, np.float64)
-    chains = np.asarray(chains, np.uint32)
-    n = len(chains)
-    mode = p.density
-    geometry = ((p.L - 1 + 2 * GRID_MARGIN) * p.oversample + 1, -float(GRID_MARGIN), float(p.oversample))
-
-    def density(x, index):
-        if mode == "legacy":
-            return _legacy_numpy(W, x, p.legacy_picks, chains, index, batch, key)
-        if mode == "grid":
-            return _grid_numpy(np.asarray(grid, np.float64), geometry, x)
-        if mode == "gaussian":
-            d = x - np.asarray(p.target_mean)
-            return np.exp(-(d * d).sum(axis=1) / (2 * np.float32(p.target_sigma) ** 2))
-        return density_numpy(W, x)
-
-    palette = ((_draw(chains, 0, batch, PURPOSE_PALETTE, key)[:, 0].astype(np.uint64) * 9) >> 32).astype(np.uint8)
-    cur = np.zeros((n, 3), np.float32)
-    cur_d = np.zeros(n)
-    tries = np.zeros(n, np.uint32)
-    for t in range(p.reset_limit):
-        active = cur_d <= 0
-        if not active.any():
-            break
-        u = uniform01(_draw(chains, t, batch, PURPOSE_RESET, key))[:, :3]
-        start = np.float32(p.L) * u
-        d = density(start, LEGACY_RESET_INDEX + t)
-        cur[active], cur_d[active] = start[active], d[active]
-        tries[active] += 1
-    init_density = cur_d.copy()
-    lc = p.cholesky().astype(np.float32)
-    total = p.burn_in + p.samples if steps is None else steps
-    emitted, accepted = [], np.zeros(n, np.uint32)
-    for s in range(total):
-        if s >= p.burn_in:
-            emitted.append(cur.copy())
-        xy = _draw(chains, s, batch, PURPOSE_STEP_XY, key)
-        zu = _draw(chains, s, batch, PURPOSE_STEP_Z, key)
-        z = np.column_stack(
-            [_box_muller(xy[:, 0], xy[:, 1]), _box_muller(xy[:, 2], xy[:, 3]), _box_muller(zu[:, 0], zu[:, 1])]
-        )
-        nxt = cur + z @ lc.T
-        nd = density(nxt, s)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.minimum(1.0, nd / np.where(cur_d > 0, cur_d, 1.0))
-        keep = ((cur_d <= 0) | (ratio >= _open01(zu[:, 2]))) & (nd > np.float32(p.threshold))
-        cur[keep], cur_d[keep] = nxt[keep], nd[keep]
-        accepted += keep
-    samples = np.stack(emitted, axis=1) if emitted else np.zeros((n, 0, 3), np.float32)
-    return {
-        "samples": samples,
-        "accepted": accepted,
-        "reset_tries": tries,
-        "init_density": init_density,
-        "palette": palette,
-    }
-
-
-# }}}
-
-
-def _integrated_time(x: np.ndarray) -> float:
-    """Mean integrated autocorrelation time over the coordinates of x (steps, walkers, dims), emcee's estimator."""
-    from emcee.autocorr import integrated_time
-
-    logging.getLogger("emcee").setLevel(logging.ERROR)  # short chains: "chain shorter than 50 tau" is expected
-    moving = x.std(axis=0).min(axis=1) > 0  # a walker that never moved has no autocorrelation (legacy: many)
-    if not moving.any():
-        return float("inf")
-    return float(np.mean(integrated_time(x[:, moving], quiet=True)))
-
-
-STEP_FLOPS = 45
-"""One Next step of Sequence besides its density: three box_muller (10 each: two uniform_open01 of 2, log, the
--2 factor, sqrt, the 2 pi factor, sin and the product), the proposal Lc z (9), cur + step (3), the ratio (1) and the
-acceptance uniform (2). Flop convention of the benches: an FMA is 2, sqrt, log, exp, sin and a division 1 each,
-compares and integer work 0: the Philox draws (two per step, 10 rounds of 32-bit multiplies) are not counted, so
-the cheap modes (gaussian, grid) read low against an FP32 peak."""
-
-DENSITY_FLOPS = {"exact": 1728, "grid": 30, "gaussian": 12}
-"""One density evaluation per mode. exact (density_exact at an interior point, a mean over uniform positions):
-33 exps with their squares (3 each for x, y; 2 plus exp and the sum's FMA for z), a dyz2 sum per (j, k) row tried,
-and for the ~78 rows inside the ball the chord (sqrt and 4 more) and plane FMA, and an FMA per lattice point in the
-ball (~524); grid: the trilinear lookup (6 to scale, 3 for t, 7 mixes of 3); gaussian: d, dot, 2 sigma^2, the
-division and exp. legacy: LEGACY_PICK_FLOPS per pick."""
-
-LEGACY_PICK_FLOPS = 13
-"""One pick of density_legacy: the uniform and its scale (2), x - p (3), the dot (5), exp, the weight and the sum."""
-
-
-def step_flops(p: Params) -> int:
-    """Flops of one chain step of Sequence in mode p.density (STEP_FLOPS + one density)."""
-    density = LEGACY_PICK_FLOPS * p.legacy_picks if p.density == "legacy" else DENSITY_FLOPS[p.density]
-    return STEP_FLOPS + density
-
-
-def bench(runtime, sizes=None) -> list[dict]:
-    """Sequence per density mode: chain-steps/s (burn-in + emitted steps of every chain) and effective samples per
-    second (emitted states / integrated autocorrelation time, emcee's estimator averaged over x, y, z), for C chains
-    x 1000 steps (PoCL: 100), beside emcee's ensemble sampler (vectorised log-probability) on the same gaussian
-    target, where emcee is installed; chain-step flop/s = step_flops per chain-step per second (emcee: -)."""
-    try:
-        import emcee
-    except ImportError:
-        emcee = None
-    sizes = sizes or ([10**4, 10**5] if runtime.is_gpu else [10**4])
-    steps = 1000 if runtime.is_gpu else 100
-    burn_in = steps // 10
-    rows = []
-    for chains in sizes:
-        emitted = min(steps, MAX_STATES // chains)  # the samples buffer holds chains x samples states
-        for density in DENSITY_MODES:
-            lattice = {"L": 20} if density == "gaussian" else {"L": 30}
-            p = Params(chains=chains, burn_in=emitted // 10, samples=emitted, density=density, **lattice)
-            sim = Simulation(runtime, p, seed=0)
-            seconds = seconds_per_call(sim.sequence, runtime.queue, min_seconds=0.5, max_calls=5)
-            samples = sim.samples_buffer.get()
-            tau = _integrated_time(np.swapaxes(samples, 0, 1)) if emcee else float("nan")
-            rows.append(
-                {
-                    "sampler": "ugpcl Sequence",
-                    "density": density,
-                    "chains": chains,
-                    "steps": p.burn_in + emitted,
-                    "ms": seconds * 1e3,
-                    "chain-steps/s": chains * (p.burn_in + emitted) / seconds,
-                    "tau": tau,
-                    "ESS/s": chains * emitted / tau / seconds,
-                    "chain-step flop/s": step_flops(p) * chains * (p.burn_in + emitted) / seconds,
-                }
-            )
-    if emcee is not None:
-        p = Params(density="gaussian")
-        mean, var = np.asarray(p.target_mean), p.target_sigma**2
-
-        def log_prob(x):
-            return -((x - mean) ** 2).sum(axis=-1) / (2 * var)
-
-        walkers, emcee_steps = 64, 20 * steps
-        start = mean + np.random.default_rng(0).normal(size=(walkers, 3))
-        sampler = emcee.EnsembleSampler(walkers, 3, log_prob, vectorize=True)
-        import time
-
-        begin = time.perf_counter()
-        sampler.run_mcmc(start, emcee_steps + burn_in * 20)
-        seconds = time.perf_counter() - begin
-        chain = sampler.get_chain(discard=burn_in * 20)
-        tau = _integrated_time(chain)
-        rows.append(
-            {
-                "sampler": f"emcee {emcee.__version__}",
-                "density": "gaussian",
-                "chains": walkers,
-                "steps": emcee_steps + burn_in * 20,
-                "ms": seconds * 1e3,
-                "chain-steps/s": walkers * (emcee_steps + burn_in * 20) / seconds,
-                "tau": tau,
-                "ESS/s": walkers * emcee_steps / tau / seconds,
-                "chain-step flop/s": "-",
-            }
-        )
-    return rows
 
 
 SCENES = [

@@ -16,8 +16,7 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
-from ugpcl.scenes.multiplane_projection import (
-    MAX_DISTANCE,
+from ugpcl.geometry.multiplane_projection import (
     SHAPE_SPHERE,
     WORLD_FIELDS,
     camera_view,
@@ -25,6 +24,7 @@ from ugpcl.scenes.multiplane_projection import (
     room_faces,
     world_record,
 )
+from ugpcl.scenes.multiplane_projection import MAX_DISTANCE
 
 from ..camera import OrbitCamera, perspective
 from ..gl import Lines, load_program, set_camera, set_uniform
