@@ -1,4 +1,4 @@
-"""Kleinian limit sets (vol.4 ch.2; spec 13 section 8): the kernels of clkernels/kleinian.cl against a float32 numpy
+"""Kleinian limit sets (vol.4 ch.2): the kernels of clkernels/kleinian.cl against a float32 numpy
 port of the book's josKleinian, the properties of the limit set (golden points, periodicity, symmetries, monotone in
 the iteration budget), the passes' colours, the GLSL shader against the kernel, adaptive anti-aliasing, the double
 variant, the animation curves, the headless CLI and Oclgrind."""
@@ -125,7 +125,7 @@ def test_mirror_and_point_symmetry_at_v_0(runtime, seed):
     mirrored, _ = sim.classify_points(points * np.array([-1, 1], F), u, 0.0)
     turned, _ = sim.classify_points(np.array([0.0, u], F) - points, u, 0.0)
     # the wrap adds 1 to x, which rounds differently for x and -x: a point on a fine boundary may flip (measured:
-    # 1 of 200 000 for the mirror); the spec's "exact" holds for the maths, not for every float32 point
+    # 1 of 200 000 for the mirror); "exact" holds for the maths, not for every float32 point
     assert (hit != mirrored).mean() <= 1e-4, f"{(hit != mirrored).mean():.5f} differ from hit(-x, y)"
     assert (hit != turned).mean() <= 1e-4, f"{(hit != turned).mean():.5f} differ from hit((-v, u) - z)"
 

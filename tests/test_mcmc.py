@@ -114,7 +114,7 @@ def test_gaussian_target_is_sampled_exactly(runtime):
 
 
 def test_chapter_field_histogram_matches_the_density(runtime):
-    # the spec's 4096 chains x (200 + 500 steps), every 5th state, take 40 s on 2 PoCL cores; 4096 x (100 + 250),
+    # 4096 chains x (200 + 500 steps), every 5th state, take 40 s on 2 PoCL cores; 4096 x (100 + 250),
     # every 2nd state, keep as many (more correlated) samples
     sim = make(runtime, L=12, chains=4096, burn_in=100, samples=250)
     x = sim.state()["samples"][:, ::2].reshape(-1, 3)

@@ -1,5 +1,5 @@
 """MultiPlane projection (vol.1 ch.9; docs/chapters/09-multiplane-projection.md): the face cameras against the
-chapter's formulas, the spec's golden table and glm.frustum; every direction hits one face; the kernels against a
+chapter's formulas, a golden table of the chapter's numbers and glm.frustum; every direction hits one face; the kernels against a
 numpy ray-marcher; the seamless composite; the mesh; the CLI; the view; Oclgrind."""
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from ugpcl.geometry.multiplane_projection import (
 from ugpcl.registry import get
 from ugpcl.scenes.multiplane_projection import MARCH_STEPS, MAX_DISTANCE, SURFACE_EPSILON, Params, Simulation
 
-# {{{ the room of the spec (section 3), written out: Unity axes, the book's face order, then the ceiling
+# {{{ the room, written out: Unity axes, the book's face order, then the ceiling
 
 ROOM = (20.0, 5.0, 10.0)
 FACE_TABLE = {  # name: (F, U, R, (W, H), distance from the room centre)
@@ -287,7 +287,7 @@ def test_render_faces_matches_reference(runtime, eye, seed):
     for k in range(6):
         d, cx, cy = window(np.asarray(eye) - (0, 2.5, 0), k)
         w, h = SIZE[k]
-        lens = (2 * d / w, 2 * cx / w, 2 * d / h, 2 * cy / h)  # P00, P02, P11, P12 of the spec's matrix
+        lens = (2 * d / w, 2 * cx / w, 2 * d / h, 2 * cy / h)  # P00, P02, P11, P12 of the lens-shift matrix
         directions = pixel_directions(12, 6, np.array([R[k], U[k], F[k]]), lens).reshape(-1, 3)
         expected = trace_reference(sim.shapes, world, eye_cg, directions)
         ambiguous = ambiguous_rays(sim.shapes, world, eye_cg, directions, expected)

@@ -223,7 +223,7 @@ def test_gpu_density_is_bridsons_within_a_few_percent(runtime, seed):
     }
     assert 0.98 < counts["gpu", False] / counts["bridson", False] < 1.10, counts
     assert abs(counts["gpu", True] / counts["bridson", True] - 1) < 0.04, counts
-    assert 1000 * 0.95 < counts["bridson", False] < 1050 * 1.05, counts  # the spec's 1025 / 1024, +-5 %
+    assert 1000 * 0.95 < counts["bridson", False] < 1050 * 1.05, counts  # the sample's 1025 / 1024 points, +-5 %
 
 
 def test_same_seed_same_points_other_seed_other_points(runtime, seed):

@@ -431,7 +431,7 @@ def test_gl_passes_match_the_kernels(gl, runtime, tmp_path, seed, mode):
         glow.run(source, sim.params, out)
         images = sim.images()
         assert images["comp"].max() > 0.5 and images["bright"].max() > 1.0  # streaks from HDR input to compare
-        # The spec's GL bound (2e-3). Both sides address texels through float32 uv, but GL interpolates its uv
+        # The GL bound (2e-3). Both sides address texels through float32 uv, but GL interpolates its uv
         # across the triangle (llvmpipe: ~1e-5 texel off the kernel's), so a bilinear tap of neighbours that differ
         # by 3 moves by up to ~1e-4 (measured: bright 8e-5, comp and dst 2.4e-7); a wrong weight, direction, clamp
         # or mode moves a texel by far more. A GPU's texture unit rounds the bilinear weights (1/512 on an H100:

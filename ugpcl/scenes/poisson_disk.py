@@ -254,7 +254,7 @@ class Simulation(BaseSimulation):
         state = {
             "points": points,
             "grid": self.grid(),
-            "sampler_steps": np.int32(self.sampler_steps()),  # the spec's "steps": the CLI records its own steps
+            "sampler_steps": np.int32(self.sampler_steps()),  # the sampler's "steps": the CLI records its own steps
             "nn_dist": pd.nearest_distances(points),
             "active": self.active(),
             "filled": np.int32(len(self.gaps)),

@@ -39,7 +39,7 @@ COMPOSITE_TYPES = ("additive", "screen", "colored_additive", "colored_screen", "
 TAPS = 4
 """Taps per streak pass (Kawase's value; the shader's `j < 4`)."""
 LOCAL = (16, 16)
-"""Work-group of every 2-D kernel (the spec's 16x16)."""
+"""Work-group of every 2-D kernel (16x16)."""
 IMAGE_SUFFIXES = (".png", ".npy")
 
 # {{{ the demo's scene (the book's Sample scene: a lit white particle shower on a black HDR camera)
@@ -53,7 +53,7 @@ LIGHT_INTENSITY = 0.87
 LIGHT_EULER = (50.0, -30.0, 0.0)
 """The Sample's directional light: colour, intensity and Unity Euler angles (degrees)."""
 SPECULAR, SHININESS = 3.0, 64.0
-"""Blinn-Phong specular gain and exponent: highlights reach ~3x the light (the spec's 'strong specular term')."""
+"""Blinn-Phong specular gain and exponent: highlights reach ~3x the light (a strong specular term)."""
 FALL_SPEED = 0.25
 """Mean falling speed of the spheres, world units/s."""
 
@@ -387,7 +387,7 @@ class Simulation(BaseSimulation):
         return images
 
     def state(self) -> dict[str, np.ndarray]:
-        """The spec's arrays, top row first (as image files): src, bright, comp, dst, streak_dirs (+ streaks)."""
+        """The chapter's arrays, top row first (as image files): src, bright, comp, dst, streak_dirs (+ streaks)."""
         images = self.images()
         state = {name: np.ascontiguousarray(image[..., ::-1, :, :]) for name, image in images.items()}
         return {**state, "streak_dirs": self.dirs_host.copy()}

@@ -24,7 +24,7 @@ ZOOM_STEP = 0.9
 PAN_STEP = 0.1
 """Arrow keys pan by this fraction of the screen height."""
 U_STEP, V_STEP = 0.005, 0.001
-"""Steps of the u and v keys (spec 13, section 6)."""
+"""Steps of the u and v keys."""
 MAX_ITERATION = 5000
 OVERLAY_LINE_WIDTH = 2.0
 """Pixels."""
