@@ -10,17 +10,9 @@ import pytest
 from helpers import foreground, render_view, run_cli
 
 from ugpcl.geometry import ear_clipping as ec
-from ugpcl.scenes.ear_clipping import (
-    MAX_BATCH_VERTICES,
-    PRESETS,
-    Params,
-    Simulation,
-    clip_on_host,
-    ear_clip_batch,
-    glyph_batch,
-    merged_polygons,
-    star,
-)
+from ugpcl.geometry.ear_clipping import clip_on_host, merged_polygons
+from ugpcl.geometry.ear_clipping_input import PRESETS, glyph_batch, star
+from ugpcl.scenes.ear_clipping import MAX_BATCH_VERTICES, Params, Simulation, ear_clip_batch
 
 # {{{ plain numpy references (never our geometry module)
 
@@ -513,7 +505,7 @@ def batch_polygons(seed, count: int) -> list:
         ring = random_star(rng, 1.0)[::-1]  # clockwise
         if len(ring) <= MAX_BATCH_VERTICES:
             stars.append(ring)
-    return stars + glyph_batch(count - len(stars))
+    return stars + glyph_batch(count - len(stars), MAX_BATCH_VERTICES)
 
 
 def test_batch_kernel_equals_the_host(runtime, seed):
@@ -546,14 +538,13 @@ def test_batch_rejects_large_polygons(runtime):
 
 
 def test_params_are_checked():
+    """The rules of check() and an unknown choice (test_params tries the ranges of every field)."""
     with pytest.raises(ValueError, match="text"):
         Params(text="")
     with pytest.raises(ValueError, match="input"):
         Params(input="/no/such/rings.json")
     with pytest.raises(ValueError, match="preset"):
         Params(preset="hexagon")
-    with pytest.raises(ValueError, match="text_size"):
-        Params(text_size=0.0)
 
 
 def test_input_json_and_drawn_rings(runtime, tmp_path):

@@ -410,19 +410,16 @@ def test_scripted_mouse_holds_then_releases(runtime):
 @pytest.mark.parametrize(
     "overrides, message",
     [
-        ({"particle_num": 1}, "particle_num must be in \\[2, 1048576\\], got 1"),
-        ({"smoothlen": 0.0}, "smoothlen must be in \\[0.0001, 10000.0\\], got 0.0"),
-        ({"rest_density": -1.0}, "rest_density must be in \\[0.001, 1000000.0\\], got -1.0"),
-        ({"max_allowable_timestep": 1 / 60}, "max_allowable_timestep must be in \\(0.0, 0.00833"),
         ({"search": "octree"}, "search must be one of all_pairs\\|grid"),
         ({"variant": "new"}, "variant must be one of fixed\\|book"),
-        ({"mouse": (1.0, 2.0, -1)}, "mouse frames \\(third number\\) must be >= 0"),
         ({"gravity": (0.0,)}, "gravity must be 2 numbers"),
         ({"viscosity": float("nan")}, "viscosity must be a finite number"),
         ({"local_size": 100}, "local_size must be one of"),
     ],
 )
 def test_bad_parameters_name_the_field_and_range(overrides, message):
+    """What test_params does not try on every field: unknown choices, a tuple's arity, NaN (ranges and the mouse
+    limit are tried there)."""
     with pytest.raises(ValueError, match=message):
         Params(**overrides)
 

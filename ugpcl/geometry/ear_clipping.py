@@ -722,6 +722,23 @@ def triangle_signed_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.nda
     return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
 
 
+def merged_polygons(rings, variant: str = "fixed") -> list[np.ndarray]:
+    """The host's bridging without the clipping: one simple clockwise polygon per group (the batch kernel's input)."""
+    result = triangulate(rings, variant)
+    o = result.group_offsets
+    return [result.vertices[o[g] : o[g + 1]] for g in range(len(o) - 1)]
+
+
+def clip_on_host(polygon: np.ndarray) -> np.ndarray:
+    """The host's InitializeVertices + EarClipping on one merged polygon: its triangles, local indices."""
+    clipper = EarClipper(polygon)
+    clipper.initialize_vertices()
+    found = []
+    while (triangle := clipper.clip()) is not None:
+        found.append(triangle)
+    return np.asarray(found, np.int32).reshape(-1, 3)
+
+
 # }}}
 
 # {{{ Lawson flips (not in the book): the constrained Delaunay triangulation

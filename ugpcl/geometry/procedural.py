@@ -275,15 +275,18 @@ class CatmullRomCurve:
     def point(self, t) -> np.ndarray:
         return self._out(self._point(self._params(t)))
 
-    def tangent(self, t) -> np.ndarray:
-        return self._out(self._tangent(self._params(t)))
-
     def point_at(self, u) -> np.ndarray:
         """GetPointAt(u): the point at arc-length fraction u."""
         return self._out(self._point(self.u_to_t(u)))
 
-    def tangent_at(self, u) -> np.ndarray:
-        return self._out(self._tangent(self.u_to_t(u)))
+
+def trefoil_knot(points: int = 12, scale: float = 0.4) -> tuple:
+    """Control points of a trefoil knot through ``points`` points, ``scale`` times (sin t + 2 sin 2t,
+    cos t - 2 cos 2t, -sin 3t) (ugpcl's tube curve: closed and non-planar, its frames must twist)."""
+    return tuple(
+        tuple(scale * v for v in (np.sin(t) + 2 * np.sin(2 * t), np.cos(t) - 2 * np.cos(2 * t), -np.sin(3 * t)))
+        for t in np.arange(points) * 2 * np.pi / points
+    )
 
 
 @dataclass

@@ -3,9 +3,10 @@ docs/chapters/16-ear-clipping.md).
 
 The book's algorithm runs on the host (``ugpcl.geometry.ear_clipping``): containment tree, holes bridged into their
 outer ring, FIFO ear list. A reset triangulates the scene's rings (a preset, ``input=rings.json`` or the rings drawn
-in the view); each step then reveals ``clips_per_step`` more clipped ears, so the view replays the ear list. The
-.npz and ``--mesh`` always hold the whole result. One kernel, ``EarClipping`` (clkernels/ear_clipping.cl), clips
-many small polygons at once, one work-item each (``ear_clip_batch``; ``ugpcl bench ear_clipping``).
+in the view; ``ugpcl.geometry.ear_clipping_input``); each step then reveals ``clips_per_step`` more clipped ears, so
+the view replays the ear list. The .npz and ``--mesh`` always hold the whole result. One kernel, ``EarClipping``
+(clkernels/ear_clipping.cl), clips many small polygons at once, one work-item each (``ear_clip_batch``;
+``ugpcl bench ear_clipping``).
 
 Differences from the book: rings are sorted exactly by area and by right-most x (``variant=book`` uses the book's
 truncating comparator); a hole that no bridge reaches is reported (the book drops it silently); ``delaunay=true``
@@ -15,15 +16,13 @@ bundled DejaVu Sans (the chapter names font outlines as the use).
 
 from __future__ import annotations
 
-import json
-import time
 from dataclasses import dataclass
-from functools import cache
 from pathlib import Path
 
 import numpy as np
 
 from ..geometry import ear_clipping as ec
+from ..geometry.ear_clipping_input import PRESETS, clean_ring, glyph_rings, load_rings
 from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
 from ..scene import Animation, Scene, param
@@ -36,92 +35,6 @@ RECORD_LIMIT = 4096
 """Scenes with more vertices than this keep no ear-list trace (it grows as vertices x clips)."""
 MAX_TEXT = 64
 """Longest text of the glyph preset."""
-
-
-# {{{ presets (spec 16, section 8; TriangulationTest.cs for nested; the chapter's fig. 5.6 for example)
-
-
-def star(points: int, outer: float, inner: float) -> np.ndarray:
-    """A star of ``points`` tips, clockwise from the top: 2 * points vertices alternating between the radii."""
-    angle = np.pi / 2 - np.arange(2 * points) * np.pi / points
-    radius = np.where(np.arange(2 * points) % 2 == 0, outer, inner)
-    return np.column_stack([radius * np.cos(angle), radius * np.sin(angle)])
-
-
-def rect(x0: float, y0: float, x1: float, y1: float) -> list:
-    """An axis-aligned rectangle, clockwise (y up), as the TriangulationTest rings are given."""
-    return [(x0, y0), (x0, y1), (x1, y1), (x1, y0)]
-
-
-def comb() -> list:
-    ring = [(0, 0), (0, 3)]
-    for i in range(5):
-        ring += [(2 * i + 1, 3), (2 * i + 1, 1), (2 * i + 2, 1), (2 * i + 2, 3)]
-    return ring + [(11, 3), (11, 0)]
-
-
-PRESETS = {
-    "nested": lambda: [
-        rect(-2, -2, 5, 2),
-        rect(-1, -1, 1, 1),
-        rect(-0.5, -0.5, 0.5, 0.5),
-        rect(2, -1, 4, 1),
-        rect(2.25, -0.75, 3, -0.25),
-        rect(3, 0.25, 3.75, 0.75),
-    ],
-    "example": lambda: [[(-2, -5), (-3, -2), (-1, 3), (-2, 6), (4, 4), (3, 4), (4, 3)]],
-    "star5": lambda: [star(5, 2.0, 0.8)],
-    "star12": lambda: [star(12, 3.0, 1.2)],
-    "comb": lambda: [comb()],
-    "holes": lambda: [rect(0, 0, 10, 10), rect(1, 1, 3, 3), rect(5, 5, 8, 8), rect(6, 1, 9, 2)],
-    "notch": lambda: [[(0, 0), (0, 10), (10, 10), (10, 6), (6, 5), (10, 4), (10, 0)], rect(2, 4, 4, 5.5)],
-    "square": lambda: [rect(0, 0, 2, 2)],
-    "collinear": lambda: [[(0, 0), (0, 1), (0, 2), (2, 2), (2, 0)]],
-    "two_squares": lambda: [rect(0, 0, 1, 1), rect(2, 0, 3, 1)],
-    "glyph": None,  # glyph_rings(params.text, params.text_size)
-    "draw": lambda: [],
-}
-"""Ring sets by name: the book's TriangulationTest (nested), its worked example of the ear list (example, fig. 5.6),
-the spec's test shapes, text outlines (glyph) and nothing (draw: the DrawTest scene, rings come from the mouse)."""
-
-
-@cache
-def _glyph_rings(text: str, size: float) -> tuple:
-    from matplotlib import get_data_path
-    from matplotlib.font_manager import FontProperties
-    from matplotlib.textpath import TextPath
-
-    font = FontProperties(fname=str(Path(get_data_path()) / "fonts" / "ttf" / "DejaVuSans.ttf"))
-    path = TextPath((0.0, 0.0), text, size=size, prop=font)
-    return tuple(clean_ring(p) for p in path.to_polygons(closed_only=True))
-
-
-def glyph_rings(text: str, size: float = 4.0) -> list[np.ndarray]:
-    """Outlines of ``text`` in matplotlib's bundled DejaVu Sans, ``size`` units per em: the curves flattened by
-    TextPath, letters with their holes (o, p, g ...) as separate rings."""
-    return [r.copy() for r in _glyph_rings(text, float(size)) if len(r) >= 3]
-
-
-def clean_ring(points) -> np.ndarray:
-    """(n, 2) float64 without the closing repeat of the first vertex and without consecutive duplicates."""
-    ring = np.asarray(points, np.float64).reshape(-1, 2)
-    keep = np.any(ring != np.roll(ring, 1, axis=0), axis=1)
-    return ring[keep] if keep.any() else ring[:1]
-
-
-def load_rings(path: str) -> list[np.ndarray]:
-    """``{"rings": [[[x, y], ...], ...]}`` (a bare list of rings is accepted too)."""
-    data = json.loads(Path(path).read_text())
-    rings = data["rings"] if isinstance(data, dict) else data
-    return [clean_ring(r) for r in rings]
-
-
-def save_rings(path, rings) -> None:
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    Path(path).write_text(json.dumps({"rings": [np.asarray(r, float).tolist() for r in rings]}))
-
-
-# }}}
 
 
 @dataclass(frozen=True)
@@ -305,10 +218,12 @@ def ear_clip_batch(runtime, polygons) -> tuple[np.ndarray, np.ndarray]:
     if sizes.min() < 3 or sizes.max() > MAX_BATCH_VERTICES:
         raise ValueError(f"polygons must have 3 to {MAX_BATCH_VERTICES} vertices, got {sizes.min()}..{sizes.max()}")
     offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int32)
-    return _launch_batch(runtime, np.concatenate(polygons), offsets)
+    return clip_batch(runtime, np.concatenate(polygons), offsets)
 
 
-def _launch_batch(runtime, points: np.ndarray, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def clip_batch(runtime, points: np.ndarray, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """EarClipping on polygons already checked and concatenated (``offsets``: (P + 1,) int32 into ``points``):
+    uploads, one launch, the triangles and counts read back (what the bench times)."""
     count = len(offsets) - 1
     program = runtime.program("ear_clipping", MAX_VERTICES=MAX_BATCH_VERTICES)
     points_d = runtime.to_device(np.ascontiguousarray(points, np.float64))
@@ -317,92 +232,6 @@ def _launch_batch(runtime, points: np.ndarray, offsets: np.ndarray) -> tuple[np.
     counts_d = runtime.zeros(count, np.int32)
     program.kernel("EarClipping").over(count, 64, points_d, offsets_d, triangles_d, counts_d, np.int32(count))
     return triangles_d.get().reshape(-1, 3), counts_d.get()
-
-
-def merged_polygons(rings, variant: str = "fixed") -> list[np.ndarray]:
-    """The host's bridging without the clipping: one simple clockwise polygon per group (the batch kernel's input)."""
-    result = ec.triangulate(rings, variant)
-    o = result.group_offsets
-    return [result.vertices[o[g] : o[g + 1]] for g in range(len(o) - 1)]
-
-
-def clip_on_host(polygon: np.ndarray) -> np.ndarray:
-    """The host's InitializeVertices + EarClipping on one merged polygon: its triangles, local indices."""
-    clipper = ec.EarClipper(polygon)
-    clipper.initialize_vertices()
-    found = []
-    while (triangle := clipper.clip()) is not None:
-        found.append(triangle)
-    return np.asarray(found, np.int32).reshape(-1, 3)
-
-
-# }}}
-
-# {{{ bench
-
-
-def glyph_batch(count: int) -> list[np.ndarray]:
-    """``count`` glyph polygons: the merged outlines of the letters a-z and A-Z (DejaVu Sans, em 1), repeated."""
-    letters = "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
-    shapes = [m for c in letters for m in merged_polygons(glyph_rings(c, 1.0)) if 3 <= len(m) <= MAX_BATCH_VERTICES]
-    return [shapes[i % len(shapes)] for i in range(count)]
-
-
-def _seconds(fn, repeat: int = 3) -> float:
-    best = float("inf")
-    for _ in range(repeat):
-        start = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - start)
-    return best
-
-
-NO_SHARE = "-"
-"""The share column of every ear-clipping row: the host rows (numpy, mapbox-earcut) run on the CPU outside OpenCL,
-and the EarClipping kernel's row is float64 arithmetic (FP_CONTRACT off, to match the host bit for bit) timed with
-its transfers: ``ugpcl bench peak`` measures an FP32 rate only, so no limit of the device applies to it."""
-
-
-def bench(runtime, sizes=None) -> list[dict]:
-    """ms and polygons/s: one n-vertex star (n = size) by the host's numpy ear clipping and by mapbox-earcut (C++
-    ear slicing with z-order hashing); then 10^4 glyph outlines (letters, holes bridged on the host beforehand) by the
-    EarClipping kernel (one work-item per polygon, transfers included), by a Python loop over mapbox-earcut and by the
-    host clipper (on the first 500). clip flop/s: "-" on every row (NO_SHARE says why)."""
-    import mapbox_earcut
-
-    sizes = sizes or [100, 1000, 10000]
-    rows = []
-
-    def row(workload, n, polygons, solver, seconds):
-        rows.append(
-            {"workload": workload, "vertices": n, "polygons": polygons, "solver": solver, "ms": seconds * 1e3,
-             "polygons/s": polygons / seconds, "clip flop/s": NO_SHARE}
-        )  # fmt: skip
-
-    for n in sizes:
-        ring = star(max(n // 2, 2), 1.0, 0.5)
-        ends = np.array([len(ring)], np.uint32)
-        row("star", len(ring), 1, "host (numpy)", _seconds(lambda r=ring: ec.triangulate([r]), 1 if n > 2000 else 3))
-        row(
-            "star",
-            len(ring),
-            1,
-            "mapbox_earcut",
-            _seconds(lambda r=ring, e=ends: mapbox_earcut.triangulate_float64(r, e)),
-        )
-    glyphs = glyph_batch(10_000)
-    total = sum(len(g) for g in glyphs)
-    points = np.concatenate(glyphs)
-    offsets = np.concatenate([[0], np.cumsum([len(g) for g in glyphs])]).astype(np.int32)
-    _launch_batch(runtime, points, offsets)  # warm-up: the build
-    row("glyphs", total, len(glyphs), "EarClipping kernel", _seconds(lambda: _launch_batch(runtime, points, offsets)))
-    ends = [np.array([len(g)], np.uint32) for g in glyphs]
-    loop = lambda: [mapbox_earcut.triangulate_float64(g, e) for g, e in zip(glyphs, ends, strict=True)]  # noqa: E731
-    row("glyphs", total, len(glyphs), "mapbox_earcut loop", _seconds(loop))
-    few = glyphs[:500]
-    host_loop = _seconds(lambda: [clip_on_host(g) for g in few], 1)
-    row("glyphs", sum(len(g) for g in few), len(few), "host (numpy) loop", host_loop)
-    return rows
 
 
 # }}}

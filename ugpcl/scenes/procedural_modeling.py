@@ -13,13 +13,11 @@ advances time, which the tree uses for its growth ``_T`` (0 to 1 over ``grow_sec
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 
 import numpy as np
 import pyopencl.cltypes as cltypes
 
-from ..bench.timing import seconds_per_call
 from ..geometry import procedural as pm
 from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
@@ -35,15 +33,9 @@ MAX_GRID = 4096
 CURVES = {
     "scene": ((2.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (-1.0, 1.0, 0.0)),
     "script": ((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (-1.0, 0.0, 0.0)),
-    # a trefoil knot through 12 points (ugpcl): a closed, non-planar curve whose frames must twist
-    "knot": tuple(
-        tuple(0.4 * v for v in (np.sin(t) + 2 * np.sin(2 * t), np.cos(t) - 2 * np.cos(2 * t), -np.sin(3 * t)))
-        for t in np.arange(12) * 2 * np.pi / 12
-    ),
+    "knot": pm.trefoil_knot(12, 0.4),  # ugpcl: a closed, non-planar curve whose frames must twist
 }
 """Control points of the tube's curve: Tubular.unity's, CurveBase.cs's default, and a knot."""
-FOREST_TREES = 1000
-"""Trees of the forest bench."""
 
 
 @dataclass(frozen=True)
@@ -142,9 +134,28 @@ class PlaneSimulation(MeshSimulation):
 
     Params = PlaneParams
 
+    def _reset(self) -> None:
+        self.perm = pm.perlin_permutation(self.seed)
+        self.grid = None
+        if self.params.builder == "opencl":
+            self.make_grid_buffers()
+        super()._reset()
+
+    def make_grid_buffers(self) -> None:
+        """``grid``: the device arrays of GridVertices, GridNormals and GridTriangles for this plane (builder=opencl;
+        the bench makes them for a numpy plane too)."""
+        p, rt = self.params, self.runtime
+        W, H = p.width_segments, p.height_segments
+        self.grid = {
+            "perm": rt.to_device(self.perm),
+            "positions": rt.empty(3 * W * H, np.float32),
+            "normals": rt.empty(3 * W * H, np.float32),
+            "uvs": rt.empty(2 * W * H, np.float32),
+            "triangles": rt.empty(6 * (W - 1) * (H - 1), np.int32),
+        }
+
     def build(self) -> Mesh:
         p = self.params
-        self.perm = pm.perlin_permutation(self.seed)
         if p.builder == "opencl":
             return self.build_opencl()
         depth = {
@@ -159,17 +170,7 @@ class PlaneSimulation(MeshSimulation):
         p, rt = self.params, self.runtime
         W, H = p.width_segments, p.height_segments
         program = rt.program("procedural_modeling", DEPTH_FN=DEPTH_FN[p.surface])
-        if getattr(self, "grid", None) is None or self.grid["size"] != (W, H):
-            self.grid = {
-                "size": (W, H),
-                "perm": rt.to_device(self.perm),
-                "positions": rt.empty(3 * W * H, np.float32),
-                "normals": rt.empty(3 * W * H, np.float32),
-                "uvs": rt.empty(2 * W * H, np.float32),
-                "triangles": rt.empty(6 * (W - 1) * (H - 1), np.int32),
-            }
         g = self.grid
-        g["perm"].set(self.perm)
         shape = cltypes.make_float4(p.power, p.u_scale, p.v_scale, p.u_offset)
         shape2 = cltypes.make_float4(p.v_offset, p.depth, p.width, p.height)
         size = (np.int32(W), np.int32(H))
@@ -330,29 +331,36 @@ class TreeSimulation(MeshSimulation):
         p = self.params
         origins = pm.forest_origins(p.trees, p.spacing)
         self.branches = pm.grow_trees(p, p.trees, self.seed, origins)
+        self.ring_buffers = None
         if p.builder == "opencl":
+            self.make_ring_buffers()
             mesh, self.tangents = self.build_opencl()
         else:
             mesh, self.tangents = pm.tree_mesh(self.branches, p.radial_segments)
         return mesh
 
+    def make_ring_buffers(self) -> None:
+        """``ring_buffers``: TubeRings' inputs (the rings of every branch, ``pm.tree_rings``, uploaded) and count,
+        and the mesh's device arrays, for the branches just grown (builder=opencl; the bench makes them for a numpy
+        forest too)."""
+        p, rt = self.params, self.runtime
+        rings = pm.tree_rings(self.branches)
+        n = len(rings.v) * (p.radial_segments + 1)
+        self.ring_buffers = {
+            "inputs": [rt.to_device(np.asarray(a, np.float32)) for a in vars(rings).values()],
+            "count": len(rings.v),
+            "positions": rt.empty(3 * n, np.float32),
+            "normals": rt.empty(3 * n, np.float32),
+            "tangents": rt.empty(4 * n, np.float32),
+            "uvs": rt.empty(2 * n, np.float32),
+            "triangles": rt.empty(6 * len(self.branches) * p.height_segments * p.radial_segments, np.int32),
+        }
+
     def launch_rings(self) -> dict:
         """TubeRings and TubeTriangles over every branch of every tree: the device arrays (not read back)."""
         p, rt = self.params, self.runtime
-        if getattr(self, "ring_inputs", None) is None or self.ring_inputs[0] is not self.branches:
-            rings = pm.tree_rings(self.branches)
-            n = len(rings.v) * (p.radial_segments + 1)
-            arrays = [rt.to_device(np.asarray(a, np.float32)) for a in vars(rings).values()]
-            self.ring_inputs = (self.branches, arrays, len(rings.v))
-            self.ring_outputs = {
-                "positions": rt.empty(3 * n, np.float32),
-                "normals": rt.empty(3 * n, np.float32),
-                "tangents": rt.empty(4 * n, np.float32),
-                "uvs": rt.empty(2 * n, np.float32),
-                "triangles": rt.empty(6 * len(self.branches) * p.height_segments * p.radial_segments, np.int32),
-            }
-        _, inputs, m = self.ring_inputs
-        out = self.ring_outputs
+        out = self.ring_buffers
+        inputs, m = out["inputs"], out["count"]
         program = rt.program("procedural_modeling")
         n = m * (p.radial_segments + 1)
         program.kernel("TubeRings").over(
@@ -452,75 +460,6 @@ class LSystemSimulation(MeshSimulation):
 
 
 # }}}
-
-
-GRID_VERTEX_BYTES = 44
-"""Least memory traffic per vertex of GridVertices + GridNormals: positions (12) and uvs (8) written, positions
-read back (12: the neighbours' from cache) and normals written (12); GridTriangles adds GRID_CELL_BYTES per cell.
-About 100 flops a vertex (one Perlin octave, six cross products for the normal) stay below what the bandwidth
-allows: memory-bound."""
-
-GRID_CELL_BYTES = 24
-"""GridTriangles per cell: the two triangles' six int32 indices written."""
-
-TUBE_VERTEX_BYTES = 48
-"""TubeRings per ring vertex: position (12), normal (12), tangent (16) and uv (8) written; each ring's inputs
-(centre, tangent, normal, binormal, radius, v: TUBE_RING_BYTES) are read once for its radial_segments + 1 vertices."""
-
-TUBE_RING_BYTES = 56
-"""TubeRings per ring: the four float3 frame vectors, the radius and v read (4 x 12 + 4 + 4)."""
-
-TUBE_QUAD_BYTES = 24
-"""TubeTriangles per quad: the two triangles' six int32 indices written."""
-
-
-def bench(runtime, sizes=None) -> list[dict]:
-    """Meshes too large for the book's C# loops: a terrain plane of N x N vertices (Perlin heights, recalculated
-    normals; N from --size, default 2048) and a forest of 1000 trees (about 6M vertices): ms and vertices/s of the
-    numpy generator and of the kernels (device arrays, no read-back); the forest's skeleton (branch frames, grown
-    on the host for both) is timed apart. kernels bytes/s: the kernels' least traffic (GRID_VERTEX_BYTES and
-    GRID_CELL_BYTES; TUBE_VERTEX_BYTES, TUBE_RING_BYTES and TUBE_QUAD_BYTES) per second."""
-    rows = []
-    queue = runtime.queue
-    for n in sizes or [2048]:
-        sim = PlaneSimulation(runtime, PlaneParams(width_segments=n, height_segments=n, surface="terrain"), seed=0)
-        start = time.perf_counter()
-        sim.build()
-        numpy_s = time.perf_counter() - start
-        kernel_s = seconds_per_call(sim.launch_grid, queue, min_seconds=1.0, max_calls=50)
-        traffic = GRID_VERTEX_BYTES * n * n + GRID_CELL_BYTES * (n - 1) * (n - 1)
-        rows.append(_bench_row(f"terrain {n}x{n}", n * n, numpy_s, kernel_s, 0.0, traffic))
-    params = TreeParams(trees=FOREST_TREES, builder="numpy")
-    start = time.perf_counter()
-    forest = TreeSimulation(runtime, params, seed=0)  # grows the skeleton, then meshes it with numpy
-    total_s = time.perf_counter() - start
-    start = time.perf_counter()
-    pm.tree_mesh(forest.branches, params.radial_segments)
-    numpy_s = time.perf_counter() - start
-    kernel_s = seconds_per_call(forest.launch_rings, queue, min_seconds=1.0, max_calls=50)
-    vertices = len(forest.mesh().vertices)
-    rings, quads = forest.ring_inputs[2], len(forest.branches) * params.height_segments * params.radial_segments
-    traffic = (
-        TUBE_VERTEX_BYTES * rings * (params.radial_segments + 1) + TUBE_RING_BYTES * rings + TUBE_QUAD_BYTES * quads
-    )
-    rows.append(_bench_row(f"forest {FOREST_TREES} trees", vertices, numpy_s, kernel_s, total_s - numpy_s, traffic))
-    return rows
-
-
-def _bench_row(
-    workload: str, vertices: int, numpy_s: float, kernel_s: float, skeleton_s: float, kernel_bytes: int
-) -> dict:
-    return {
-        "workload": workload,
-        "vertices": vertices,
-        "ms numpy": numpy_s * 1e3,
-        "ms kernels": kernel_s * 1e3,
-        "vertices/s numpy": vertices / numpy_s,
-        "vertices/s kernels": vertices / kernel_s,
-        "x numpy": numpy_s / kernel_s,
-        "ms skeleton (host)": skeleton_s * 1e3,
-        "kernels bytes/s": kernel_bytes / kernel_s,
-    }
 
 
 SCENES = [

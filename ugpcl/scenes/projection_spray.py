@@ -21,17 +21,24 @@ from __future__ import annotations
 import colorsys
 import math
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
-from ..bench.timing import seconds_per_step
-from ..geometry.mesh import Mesh, vertex_normals
+from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
-from ..geometry.transforms import euler_matrix, perspective, translation
-from ..geometry.uv_atlas import bake, per_triangle_layout, tile_bounds, unit_cube, uv_sphere
+from ..geometry.projection_spray import (
+    PRESETS,
+    Drawable,
+    look_rotation,
+    preset_drawables,
+    spray_matrices,
+    spray_shape,
+)
+from ..geometry.transforms import euler_matrix
+from ..geometry.uv_atlas import bake, tile_bounds
 from ..resources import Allocation
 from ..scene import Animation, ParamError, PreviewCheck, Scene, param
 from ..scene import Params as BaseParams
@@ -39,8 +46,6 @@ from ..scene import Simulation as BaseSimulation
 
 TILE = 16
 """Texture tiles are TILE x TILE texels (projection_spray.cl: TILE): the unit of tile skipping."""
-SPRAY_NEAR = 0.01
-"""The spray's near clip plane (the sample sets it in code)."""
 HUE_RATE = 0.1
 """Hue turns per second while the colour cycles (the sample: HSV((time * 0.1) mod 1, 1, 1))."""
 UNIFORM_FLOATS = 64
@@ -48,8 +53,6 @@ UNIFORM_FLOATS = 64
 occlusion sharpness, occlusion bias (projection_spray.cl: U_*)."""
 RECORDED_FRAMES = 36000
 """Per-frame records (spray pose, aim, colour, transforms) kept for the .npz: the last 10 minutes at 60 Hz."""
-OFFSET = np.array([[0.5, 0, 0, 0.5], [0, 0.5, 0, 0.5], [0, 0, 0.5, 0.5], [0, 0, 0, 1.0]])
-"""Clip xyz -> 0.5 xyz + 0.5 w: clip space to the spray's uv (the sample's projector offset)."""
 
 
 @dataclass(frozen=True)
@@ -103,180 +106,8 @@ class Params(BaseParams):
     """Run the texel kernels only on tiles the spray cone can reach (ugpcl); false: every texel, as the sample."""
 
 
-@dataclass
-class Drawable:
-    """A paintable object: its mesh with a paint layout (uvs), its place, and whether it spins with the Rotater."""
-
-    name: str
-    mesh: Mesh
-    local: np.ndarray = field(default_factory=lambda: np.identity(4))
-    """Object -> parent matrix (uniform scale only: normals go through its 3x3)."""
-    rotates: bool = True
-
-
-@dataclass(frozen=True)
-class Preset:
-    spray_position: tuple[float, float, float]
-    """Start of the spray (aim fixed and mouse), and its orbit's radius and height (aim orbit)."""
-    aim_center: tuple[float, float, float]
-    """What the spray looks at (aim fixed) and the centre of the aim circle (aim orbit)."""
-
-
-PRESETS = {
-    "cube_sphere": Preset((-4.0, 8.0, -8.0), (0.0, 0.0, 0.0)),  # the sample's spray at (-4, 8, -8)
-    "stencil": Preset((0.0, 0.0, -5.0), (0.0, 0.0, 0.0)),
-    "figure": Preset((0.0, 1.3, -2.6), (0.0, 0.9, 0.0)),
-}
-STENCIL_PLATE_Z, STENCIL_PLATE_SIZE = -2.5, 2.4
-"""The stencil plate: halfway between the spray (z = -5) and the wall (z = 0), wider than the spray's cone there."""
-STAR_RADII, STAR_POINTS = (0.45, 0.2), 5
-"""The cut-out: a five-pointed star, outer and inner radius (its shadow on the wall is twice as large)."""
-WALL_SIZE = (4.0, 3.0)
-
-
-# {{{ the presets' objects
-
-
-def placed(scale: float, offset) -> np.ndarray:
-    """The local matrix that scales uniformly by ``scale`` and moves it to ``offset``."""
-    return translation(*offset) @ np.diag([scale, scale, scale, 1.0])
-
-
-def planar_mesh(points2d: np.ndarray, triangles: np.ndarray, z: float) -> Mesh:
-    """A flat mesh in the plane z = const facing -z (towards the spray), uvs planar over its bounding box."""
-    lo, hi = points2d.min(axis=0), points2d.max(axis=0)
-    vertices = np.column_stack([points2d, np.full(len(points2d), z)])
-    faces = np.asarray(triangles, np.int64)
-    cross = np.cross(vertices[faces[:, 1]] - vertices[faces[:, 0]], vertices[faces[:, 2]] - vertices[faces[:, 0]])
-    faces = np.where((cross[:, 2] > 0)[:, None], faces[:, [0, 2, 1]], faces)  # normal -z
-    normals = np.tile([0.0, 0.0, -1.0], (len(points2d), 1))
-    return Mesh(vertices, faces, normals, (points2d - lo) / (hi - lo))
-
-
-def star(outer: float, inner: float, points: int) -> np.ndarray:
-    angle = np.pi / 2 + np.arange(2 * points) * np.pi / points
-    radius = np.where(np.arange(2 * points) % 2 == 0, outer, inner)
-    return np.column_stack([radius * np.cos(angle), radius * np.sin(angle)])
-
-
-def stencil_plate() -> Mesh:
-    """The plate with the star cut out, triangulated by the ear clipper of vol.4 ch.5."""
-    from ..geometry.ear_clipping import triangulate
-
-    h = STENCIL_PLATE_SIZE / 2
-    outer = np.array([[-h, -h], [h, -h], [h, h], [-h, h]])
-    result = triangulate([outer, star(*STAR_RADII, STAR_POINTS)])
-    return planar_mesh(result.vertices, result.triangles, STENCIL_PLATE_Z)
-
-
-def wall() -> Mesh:
-    w, h = WALL_SIZE[0] / 2, WALL_SIZE[1] / 2
-    return planar_mesh(np.array([[-w, -h], [w, -h], [w, h], [-w, h]]), [[0, 1, 2], [0, 2, 3]], 0.0)
-
-
-def figure_mesh(tex: int, gutter: int) -> Mesh:
-    from ..geometry.skinned_figure import Figure
-
-    vertices, triangles, _ = Figure().mesh()
-    mesh = Mesh(vertices, triangles, vertex_normals(vertices, triangles))
-    return per_triangle_layout(mesh, tex, gutter)
-
-
-def island_gutter(tex: int, edge_texels: int) -> int:
-    """Texels between an island and its cell's border: 16 or twice the dilation (the sample's lightmap padding),
-    at most tex / 24 so that small test textures keep islands of a few texels."""
-    return max(1, min(max(16, 2 * edge_texels), tex // 24))
-
-
-def preset_drawables(p: Params) -> list[Drawable]:
-    gutter = island_gutter(p.tex, p.edge_texels)
-    if p.preset == "cube_sphere":
-        cube, sphere = unit_cube(p.tex, gutter), uv_sphere(p.tex, gutter)
-        return [Drawable("cube", cube, placed(10.0, (0, -5, 0))), Drawable("sphere", sphere, placed(2.0, (0, 1, 0)))]
-    if p.preset == "stencil":
-        return [Drawable("wall", wall(), rotates=False), Drawable("plate", stencil_plate(), rotates=False)]
-    try:
-        return [Drawable("figure", figure_mesh(p.tex, p.edge_texels // 2 + 1))]
-    except ValueError as err:
-        raise ParamError(str(err)) from None
-
-
-# }}}
-
-# {{{ spray shape and pose
-
-
-def snoise2d(v: np.ndarray) -> np.ndarray:
-    """Ashima's 2-D simplex noise (webgl-noise, MIT; Keijiro's SimplexNoise2D.cginc), about [-1, 1]."""
-    c = np.array([0.211324865405187, 0.366025403784439, -0.577350269189626, 0.024390243902439])
-    mod289 = lambda x: x - np.floor(x / 289.0) * 289.0  # noqa: E731
-    permute = lambda x: mod289((x * 34.0 + 1.0) * x)  # noqa: E731
-    i = np.floor(v + (v[..., 0] + v[..., 1])[..., None] * c[1])
-    x0 = v - i + (i[..., 0] + i[..., 1])[..., None] * c[0]
-    i1 = np.where((x0[..., 0] > x0[..., 1])[..., None], [1.0, 0.0], [0.0, 1.0])
-    x1 = x0 + c[0] - i1
-    x2 = x0 + c[2]
-    i = mod289(i)
-    p = permute(
-        permute(i[..., 1, None] + np.stack([np.zeros_like(i1[..., 1]), i1[..., 1], np.ones_like(i1[..., 1])], -1))
-        + i[..., 0, None]
-        + np.stack([np.zeros_like(i1[..., 0]), i1[..., 0], np.ones_like(i1[..., 0])], -1)
-    )
-    corners = np.stack([x0, x1, x2], -2)
-    m = np.maximum(0.5 - np.sum(corners**2, -1), 0.0) ** 4
-    x = 2.0 * np.modf(p * c[3])[0] - 1.0
-    x = np.where(x < -1.0, x + 2.0, x)  # fract of a negative number
-    h = np.abs(x) - 0.5
-    a0 = x - np.floor(x + 0.5)
-    m *= 1.79284291400159 - 0.85373472095314 * (a0 * a0 + h * h)
-    g = a0 * corners[..., 0] + h * corners[..., 1]
-    return 130.0 * np.sum(m * g, -1)
-
-
-def spray_shape(res: int, edge: float, freq: float, amp: float) -> np.ndarray:
-    """The spray's footprint (the sample's SprayPaintTexGen): rgb = 1, alpha = a soft disc of radius ~0.5 whose rim
-    wobbles with simplex noise around the circle; (res, res, 4) float32, alpha 1 at the centre."""
-    centres = (np.arange(res) + 0.5) / res - 0.5
-    xy = np.stack(np.meshgrid(centres, centres), -1)
-    d = np.linalg.norm(xy, axis=-1)
-    direction = xy / np.maximum(d, 1e-12)[..., None]
-    radius = 0.5 - amp + amp * snoise2d(direction * freq)
-    lo, hi = radius * (1.0 - edge), radius
-    t = np.clip((d - lo) / np.maximum(hi - lo, 1e-12), 0.0, 1.0)
-    alpha = np.where(d >= hi, 0.0, 1.0 - t * t * (3.0 - 2.0 * t))
-    alpha = np.where(d <= lo, 1.0, alpha)
-    shape = np.ones((res, res, 4), np.float32)
-    shape[..., 3] = alpha
-    return shape
-
-
-def look_rotation(position, target) -> np.ndarray:
-    """Unity's LookAt with world up: the spray's local -> world matrix, local +z towards ``target``."""
-    position, target = np.asarray(position, float), np.asarray(target, float)
-    forward = target - position
-    forward /= np.linalg.norm(forward)
-    up = np.array([0.0, 1.0, 0.0])
-    right = np.cross(up, forward)
-    if np.linalg.norm(right) < 1e-9:  # aiming straight up or down: LookAt is singular, take world +z as up
-        right = np.cross([0.0, 0.0, 1.0], forward)
-    right /= np.linalg.norm(right)
-    m = np.identity(4)
-    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, np.cross(forward, right), forward, position
-    return m
-
-
-def spray_matrices(pose: np.ndarray, angle: float, spray_range: float) -> tuple[np.ndarray, np.ndarray]:
-    """(M_proj, W2D) of a spray at ``pose``: world -> spray uv (Offset P V, V looking down -z) and world -> local."""
-    w2d = np.linalg.inv(pose)
-    view = np.diag([1.0, 1.0, -1.0, 1.0]) @ w2d
-    return OFFSET @ perspective(angle, 1.0, SPRAY_NEAR, spray_range) @ view, w2d
-
-
 def hsv_color(time: float) -> tuple[float, float, float, float]:
     return (*colorsys.hsv_to_rgb((time * HUE_RATE) % 1.0, 1.0, 1.0), 1.0)
-
-
-# }}}
 
 
 class Simulation(BaseSimulation):
@@ -291,7 +122,11 @@ class Simulation(BaseSimulation):
         self.depth = rt.zeros(p.depth_res * p.depth_res, np.uint32)
         self.target = np.asarray(PRESETS[p.preset].aim_center, float)  # aim=mouse: the point under the mouse
         self.records: deque = deque(maxlen=RECORDED_FRAMES)
-        self.set_drawables(preset_drawables(p))
+        try:
+            drawables = preset_drawables(p.preset, p.tex, p.edge_texels)
+        except ValueError as err:  # the figure's triangles do not fit a texture of tex texels
+            raise ParamError(str(err)) from None
+        self.set_drawables(drawables)
 
     def set_drawables(self, drawables: list[Drawable]) -> None:
         """Bake and upload ``drawables`` (tests and experiments place their own objects); canvases start clear."""
@@ -423,27 +258,17 @@ class Simulation(BaseSimulation):
         block[52:57] = p.emission, p.spray_range, dt, p.occlusion_sharpness, p.occlusion_bias
         self.uniforms[k].set(block)
 
-    def _over_tiles(self, name: str, tiles, count: int, *args) -> None:
-        """Launch ``name`` with one work-group per tile of the list ``tiles`` (its first ``count``), then ``args``."""
-        tex = np.int32(self.params.tex)
-        self.program.kernel(name)(
-            (count * TILE * TILE,),
-            (TILE * TILE,),  # one group per tile; a fixed size also spares PoCL a kernel build per global size
-            tiles,
-            np.int32(self.tiles_x),
-            tex,
-            tex,
-            *args,
-        )
-
     def spray_pass(self, name: str, k: int, tiles, count: int) -> None:
         """SprayDraw (into the paint) or SprayGuide (into the guide) over ``count`` tiles of drawable k."""
         p, tex = self.params, self.textures[k]
         target = tex["paint"] if name == "SprayDraw" else tex["guide"]
-        self._over_tiles(
-            name,
+        self.program.kernel(name).over(
+            count * TILE * TILE,
+            TILE * TILE,  # one group per tile; a fixed size also spares PoCL a kernel build per global size
             tiles,
-            count,
+            self.tiles_x,
+            p.tex,
+            p.tex,
             tex["pos_tex"],
             tex["nrm_tex"],
             self.shape,
@@ -457,10 +282,13 @@ class Simulation(BaseSimulation):
     def edge_thicken(self, k: int, source: str, target: str, tiles, count: int) -> None:
         """EdgeThicken: ``source`` dilated into the gutters -> ``target`` on ``count`` tiles of drawable k."""
         p, tex = self.params, self.textures[k]
-        self._over_tiles(
-            "EdgeThicken",
+        self.program.kernel("EdgeThicken").over(
+            count * TILE * TILE,
+            TILE * TILE,
             tiles,
-            count,
+            self.tiles_x,
+            p.tex,
+            p.tex,
             tex["pos_tex"],
             np.int32(p.edge_texels),
             tex[source],
@@ -619,62 +447,6 @@ class Simulation(BaseSimulation):
         path.write_bytes(trimesh.Scene(body).export(file_type="glb"))
 
     # }}}
-
-
-SPRAY_TEXEL_BYTES = 80
-"""Least memory traffic per texel of a sprayed tile, float4 texels: SprayDraw reads pos_tex and nrm_tex (32; the
-spray's depth map and shape come from cache) and EdgeThicken reads pos_tex and the paint and writes the canvas (48).
-The ring of tiles EdgeThicken adds around the sprayed ones and the depth map's pass are not counted."""
-
-PAINT_TEXEL_BYTES = 32
-"""What a texel the paint changes adds: SprayDraw reads and writes its paint texel (16 each)."""
-
-
-def bench(runtime, sizes=None) -> list[dict]:
-    """Painted texels/s: one frame (depth map, SprayDraw, EdgeThicken) per step, spraying 1 or 8 unit spheres
-    (bench_spheres) from 12 units, per texture size, with and without tile skipping. texels/s counts every texel
-    the sample's passes touch (objects x tex^2 per frame); painted texels/s only those the paint changed.
-    frame bytes/s: SPRAY_TEXEL_BYTES per texel of the tiles sprayed and PAINT_TEXEL_BYTES per painted texel, per
-    second."""
-    sizes = sizes or ([1024, 2048] if runtime.is_gpu else [128, 256])
-    rows = []
-    for tex in sizes:
-        for objects in (1, 8):
-            for skip in (False, True):
-                params = Params(
-                    tex=tex, depth_res=min(tex, 1024), hue_cycle=False, rotation_speed=0.0, aim="fixed", skip_tiles=skip
-                )
-                sim = Simulation(runtime, params, seed=0)
-                sim.set_drawables(bench_spheres(tex, objects, params.edge_texels))
-                before = np.stack([t["paint"].get() for t in sim.textures])
-                sim.step()
-                painted = int(np.any(np.stack([t["paint"].get() for t in sim.textures]) != before, axis=-1).sum())
-                seconds = seconds_per_step(sim, max_steps=20)
-                rows.append(
-                    {
-                        "tex": tex,
-                        "objects": objects,
-                        "skip tiles": skip,
-                        "ms/frame": seconds * 1e3,
-                        "texels/s": objects * tex * tex / seconds,
-                        "painted texels/s": painted / seconds,
-                        "tiles sprayed": sim.tiles_last,
-                        "frame bytes/s": (
-                            SPRAY_TEXEL_BYTES * sim.tiles_last * TILE * TILE + PAINT_TEXEL_BYTES * painted
-                        )
-                        / seconds,
-                    }
-                )
-    return rows
-
-
-def bench_spheres(tex: int, count: int, edge_texels: int) -> list[Drawable]:
-    """``count`` (<= 9) unit spheres 4 units apart on a 3-wide grid around the cube_sphere spray's aim centre: the outer
-    ones lie only partly in its cone."""
-    sphere = uv_sphere(tex, island_gutter(tex, edge_texels))
-    grid = sorted(((x * 4.0, y * 4.0, 0.0) for y in (-1, 0, 1) for x in (-1, 0, 1)), key=np.linalg.norm)
-    spots = grid[:count]  # the centre first: one sphere is the one the spray points at
-    return [Drawable(f"sphere{i}", sphere, placed(1.0, spot), rotates=False) for i, spot in enumerate(spots)]
 
 
 SCENES = [

@@ -28,10 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 import pyopencl.cltypes as cltypes
 
-from ..bench.timing import grid_pairs_2d, seconds_per_step
 from ..buffers import PingPong
 from ..grid import UniformGrid
-from ..runtime import round_up
 from ..scene import Animation, PreviewCheck, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
@@ -166,7 +164,6 @@ class Simulation(BaseSimulation):
         p, rt = self.params, self.runtime
         self.n = p.particle_num
         self.program = rt.program("sph_2d")
-        self.local_size = self._fit_local_size(p.local_size)
         start = initial_particles(self.n, p, self.seed)
         self.particles = PingPong(rt.to_device(start), rt.to_device(start))  # book: particlesBufferRead/Write
         self.density = rt.zeros(self.n, np.float32)
@@ -175,18 +172,6 @@ class Simulation(BaseSimulation):
         self._grid: UniformGrid | None = None
         self._grid_is_current = False
         self.mouse_pos, self.mouse_down = (0.0, 0.0), False  # book: screenToWorldPointPos starts at the origin
-
-    def _fit_local_size(self, wanted: int) -> int:
-        """Largest power of two <= wanted that every kernel of the program can run with on this device."""
-        names = ("DensityCS", "DensityCS_grid", "PressureCS", "ForceCS", "ForceCS_grid", "IntegrateCS")
-        limit = min(self.program.kernel(k).work_group_size() for k in names)
-        size = wanted
-        while size > max(1, limit):
-            size //= 2
-        return size
-
-    def _global(self) -> tuple[int]:
-        return (round_up(self.n, self.local_size),)
 
     # {{{ neighbour grid (search=grid)
 
@@ -218,22 +203,22 @@ class Simulation(BaseSimulation):
         )
         if p.search == "grid":
             grid = self.grid()
-            self.program.kernel("DensityCS_grid")(
-                self._global(),
-                (self.local_size,),
+            self.program.kernel("DensityCS_grid").over(
+                self.n,
+                p.local_size,
                 *args,
                 *grid.geometry_args(),
                 *grid.search_args(),
             )
         else:
-            self.program.kernel("DensityCS")(self._global(), (self.local_size,), *args)
+            self.program.kernel("DensityCS").over(self.n, p.local_size, *args)
 
     def pressure_cs(self) -> None:
         """PressureCS: Tait pressure of every particle from its density."""
         p = self.params
-        self.program.kernel("PressureCS")(
-            self._global(),
-            (self.local_size,),
+        self.program.kernel("PressureCS").over(
+            self.n,
+            p.local_size,
             self.density.data,
             self.pressure.data,
             np.int32(self.n),
@@ -258,22 +243,22 @@ class Simulation(BaseSimulation):
         )
         if p.search == "grid":
             grid = self.grid()
-            self.program.kernel("ForceCS_grid")(
-                self._global(),
-                (self.local_size,),
+            self.program.kernel("ForceCS_grid").over(
+                self.n,
+                p.local_size,
                 *args,
                 *grid.geometry_args(),
                 *grid.search_args(),
             )
         else:
-            self.program.kernel("ForceCS")(self._global(), (self.local_size,), *args)
+            self.program.kernel("ForceCS").over(self.n, p.local_size, *args)
 
     def integrate_cs(self, dt: float) -> None:
         """IntegrateCS: mouse, walls, gravity and the Euler update from particles_in into particles_out."""
         p = self.params
-        self.program.kernel("IntegrateCS")(
-            self._global(),
-            (self.local_size,),
+        self.program.kernel("IntegrateCS").over(
+            self.n,
+            p.local_size,
             self.particles.read.data,
             self.force.data,
             self.particles.write.data,
@@ -407,70 +392,6 @@ def initial_particles(n: int, p: Params, seed: int) -> np.ndarray:
     data["position"] = (cell + jitter) * spacing
     return data
 
-
-# {{{ benchmark
-
-
-def bench_params(n: int, search: str) -> Params:
-    """The scene at N particles: box and disc scaled by sqrt(N / 8192) to keep the scene's number density."""
-    scale = math.sqrt(n / 8192)
-    return Params(particle_num=n, search=search, range=(16.0 * scale, 9.0 * scale), ball_radius=5.0 * scale)
-
-
-PAIR_TEST_FLOPS = 11
-"""One pair tested by both DensityCS and ForceCS (or their _grid twins): in each, diff = x_j - x_i (2) and
-dot(diff, diff) (3); DensityCS also adds the term to its sum (1; 0 outside h). Flop convention of the benches: an
-FMA is 2, sqrt and a division 1 each, compares and fmax 0."""
-
-PAIR_SUM_FLOPS = 27
-"""What a pair inside h adds to its tests: calculate_density (4); in force_term sqrt (1), calculate_grad_pressure
-with the mean pressure and its sum (13) and calculate_lap_velocity with its sum (9)."""
-
-
-def pair_flops(positions, h: float, origin, cell_size: float, dims, all_pairs: bool) -> float:
-    """Flops of one sub-step's DensityCS + ForceCS (or their _grid twins) at these positions: PAIR_TEST_FLOPS per
-    pair the kernels test (all N(N-1), or the grid's 3x3-cell candidates) and PAIR_SUM_FLOPS per pair within h."""
-    i, j = grid_pairs_2d(positions, origin, cell_size, dims)
-    d = positions[i] - positions[j]
-    within = int(np.count_nonzero(np.einsum("ij,ij->i", d, d) < np.float64(h) ** 2))
-    n = len(positions)
-    tests = n * (n - 1) if all_pairs else len(i)
-    return float(PAIR_TEST_FLOPS * tests + PAIR_SUM_FLOPS * within)
-
-
-def bench(runtime, sizes=None) -> list[dict]:
-    """ms per frame (4 sub-steps) and particle sub-steps/s for the book's all-pairs loops and the uniform grid, from
-    the scene's start (box and disc scaled with N to keep the number density); pair tests/s = 2 N^2 per sub-step
-    (all pairs); speed-up = grid over all pairs at the same N; pair flop/s = pair_flops (tests and pairs within h
-    counted on the host at the state the timed frames end in) per second."""
-    sizes = sizes or ([8192, 32768, 262144] if runtime.is_gpu else [8192, 32768])
-    rows = []
-    for n in sizes:
-        per_frame = {}
-        for search in ("all_pairs", "grid"):
-            sim = Simulation(runtime, bench_params(n, search), seed=0)
-            seconds = seconds_per_step(sim, min_seconds=1.0, max_steps=20)
-            per_frame[search] = seconds
-            substeps = sim.params.iterations
-            grid = sim.grid()  # the grid kernels' cells (cell >= h); for all pairs it only finds the pairs within h
-            positions = sim.particles_array()["position"].astype(np.float64)
-            flops = pair_flops(positions, sim.params.smoothlen, grid.origin, grid.cell_size, grid.dims,
-                               search == "all_pairs")  # fmt: skip
-            rows.append(
-                {
-                    "N": n,
-                    "search": search,
-                    "ms/frame": seconds * 1e3,
-                    "particle-steps/s": n * substeps / seconds,
-                    "pair tests/s": 2.0 * n * n * substeps / seconds if search == "all_pairs" else "-",
-                    "speed-up": per_frame["all_pairs"] / seconds,  # a figure (x all pairs), not a label
-                    "pair flop/s": flops * substeps / seconds,
-                }
-            )
-    return rows
-
-
-# }}}
 
 SCENES = [
     Scene(

@@ -12,7 +12,7 @@ from pathlib import Path
 import moderngl
 import numpy as np
 
-from ugpcl.scenes.ear_clipping import load_rings, save_rings
+from ugpcl.geometry.ear_clipping_input import load_rings, save_rings
 
 from ..camera import FlatCamera
 from ..gl import Discs, GrowableBuffer, Lines, load_program, set_camera, set_uniform
