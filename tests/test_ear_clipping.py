@@ -1,4 +1,4 @@
-"""Ear clipping (vol.4 ch.5; docs/chapters/16-ear-clipping.md): the spec's presets, triangulation invariants, the
+"""Ear clipping (vol.4 ch.5; docs/chapters/16-ear-clipping.md): the presets' numbers, triangulation invariants, the
 chapter's worked ear list, random stars with holes, mapbox-earcut, Delaunay flips, the batch kernel, CLI, view."""
 
 from __future__ import annotations
@@ -74,7 +74,7 @@ def make(runtime, **params) -> Simulation:
     return Simulation(runtime, Params(**params), 0)
 
 
-# {{{ presets: the spec's numbers (spec 16, section 8.2)
+# {{{ presets: their triangle counts, areas and vertex counts
 
 SPEC = {  # preset: (triangles, area, output vertices)
     "square": (2, 4.0, 4),
@@ -235,7 +235,7 @@ def test_point_in_polygon_matches_winding_number(seed):
 
 # }}}
 
-# {{{ random stars with holes (spec 16, section 8.5)
+# {{{ random stars with holes
 
 
 def random_star(rng, radius: float) -> np.ndarray:

@@ -1,6 +1,6 @@
 """MultiPlane projection (vol.1 ch.9; docs/chapters/09-multiplane-projection.md): the face cameras against the
-chapter's formulas, a golden table of the chapter's numbers and glm.frustum; every direction hits one face; the kernels against a
-numpy ray-marcher; the seamless composite; the mesh; the CLI; the view; Oclgrind."""
+chapter's formulas, a golden table of its numbers and glm.frustum; every direction hits one face; the kernels
+against a numpy ray-marcher; the seamless composite; the mesh; the CLI; the view; Oclgrind."""
 
 from __future__ import annotations
 

@@ -24,9 +24,4 @@ def benches() -> dict:
             module = importlib.import_module(f"{__name__}.{info.name}")
             if hasattr(module, "bench"):
                 found[info.name] = module.bench
-    from ..registry import modules  # TRANSITION: chapters whose bench still sits in the scene module
-
-    for name, module in modules().items():
-        if hasattr(module, "bench"):
-            found.setdefault(name, module.bench)
-    return dict(sorted(found.items(), key=lambda kv: (kv[0] not in ("copy", "peak", "launch"), kv[0])))
+    return found

@@ -36,12 +36,12 @@ def frame_bytes(W: int, H: int, w: int, h: int, streaks: int, iteration: int, va
 
 def bench(runtime, sizes=None) -> list[dict]:
     """ms per frame of the StarGlow passes (source fixed; brightness to composite, the queue finished after each
-    frame) for the book's per-pass launches and the fused variant, at the spec's two workloads (W, H, divide, N,
+    frame) for the book's per-pass launches and the fused variant, at two workloads (W, H, divide, N,
     iteration) = (1920, 1080, 7, 5, 2) and (3840, 2160, 3, 8, 4); beside it the streaks alone on the CPU: the brightness
     image filtered with one direction's line kernel a^d, d < 4^iteration (cv2.filter2D where opencv is installed,
     else scipy.ndimage.convolve), timed for one direction and multiplied by N; and the GL passes (EGL) if available.
     frame bytes/s: the OpenCL variant's least traffic (frame_bytes) per second (the CPU and GL rows: -).
-    sizes: ignored (the two workloads are the spec's)."""
+    sizes: ignored (the two workloads are fixed)."""
     rows = []
     for W, H, divide, n, iteration in ((1920, 1080, 7, 5, 2), (3840, 2160, 3, 8, 4)):
         common = {"width": W, "height": H, "divide": divide, "num_of_streak": n, "iteration": iteration}

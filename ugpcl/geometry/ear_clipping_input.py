@@ -1,4 +1,4 @@
-"""Ear clipping's input (vol.4 ch.5; docs/chapters/16-ear-clipping.md): the preset ring sets (spec 16, section 8;
+"""Ear clipping's input (vol.4 ch.5; docs/chapters/16-ear-clipping.md): the preset ring sets (
 TriangulationTest.cs for nested; the chapter's fig. 5.6 for example), text outlines (the glyph preset, and the glyph
 polygons of the batch kernel's workload) and rings read from and written to JSON (``input=``, the view's drawn rings).
 """
@@ -55,7 +55,7 @@ PRESETS = {
     "draw": lambda: [],
 }
 """Ring sets by name: the book's TriangulationTest (nested), its worked example of the ear list (example, fig. 5.6),
-the spec's test shapes, text outlines (glyph) and nothing (draw: the DrawTest scene, rings come from the mouse)."""
+the test shapes, text outlines (glyph) and nothing (draw: the DrawTest scene, rings come from the mouse)."""
 
 
 # {{{ text outlines and JSON rings
