@@ -8,6 +8,7 @@ import shutil
 import subprocess
 import sys
 import time
+from collections import Counter
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -57,6 +58,8 @@ class Window:
     def __init__(self, env: dict, cwd: Path, app: subprocess.Popen, trace: Path):
         self.env, self.cwd, self.app, self.trace = env, cwd, app, trace
         self.lines: list[str] = []
+        self.counts: Counter[str] = Counter()  # how often each line came (keys: "key s"; mouse events by kind)
+        self.frame, self.sim_time = 0, 0.0  # the number of the last frame drawn, the simulated time it showed
         self._offset = 0
         self.id = ""
 
@@ -68,38 +71,46 @@ class Window:
             data = file.read()
         whole = data[: data.rfind(b"\n") + 1]  # a line being written waits for the next read
         self._offset += len(whole)
-        self.lines += whole.decode().splitlines()
+        for line in whole.decode().splitlines():
+            self.lines.append(line)
+            kind, _, rest = line.partition(" ")
+            if kind == "frame":
+                number, sim_time = rest.split()
+                self.frame, self.sim_time = int(number), float(sim_time)
+            else:
+                self.counts[line] += 1
+                if rest:  # a mouse event: counted by kind too
+                    self.counts[kind] += 1
 
     def wait(self, until, what: str) -> None:
-        """Poll the trace until ``until(lines)`` holds; fail naming ``what`` if the window quits or takes too long."""
+        """Poll the trace until ``until()`` holds; fail naming ``what`` if the window quits or takes too long."""
         deadline = time.monotonic() + WAIT_SECONDS
         while True:
             self._read()
-            if until(self.lines):
+            if until():
                 return
             if self.app.poll() is not None:
-                pytest.fail(f"the window quit (exit {self.app.returncode}) while waiting for {what}")
+                err = self.app.stderr.read()[-3000:]
+                pytest.fail(f"the window quit (exit {self.app.returncode}) while waiting for {what}; stderr:\n{err}")
             if time.monotonic() > deadline:
                 pytest.fail(f"no {what} within {WAIT_SECONDS:.0f} s; the trace ends {self.lines[-5:]}")
             time.sleep(0.02)
 
     def count(self, line: str) -> int:
+        """How often the trace holds ``line`` (or, for a mouse event's kind, how many of that kind)."""
         self._read()
-        return self.lines.count(line)
-
-    def frames(self) -> int:
-        self._read()
-        return next((int(line.split()[1]) for line in reversed(self.lines) if line.startswith("frame ")), 0)
+        return self.counts[line]
 
     def wait_frames(self, n: int = 1) -> None:
         """Wait until ``n`` more frames are drawn (what an event changed is on screen)."""
-        target = self.frames() + n
-        self.wait(lambda _: self.frames() >= target, f"frame {target}")
+        self._read()
+        target = self.frame + n
+        self.wait(lambda: self.frame >= target, f"frame {target}")
 
     def open(self) -> None:
         """Wait for the window and its first frame, focus it, and make sure it takes keys (a window still starting
         up drops them): an unbound key (F12) is pressed until the window reports one."""
-        self.wait(lambda _: self.frames() >= 1, "the first frame")
+        self.wait(lambda: self.frame >= 1, "the first frame")
         self.id = xdotool(self.env, "search", "--sync", "--onlyvisible", "--name", "ugpcl").splitlines()[0]
         xdotool(self.env, "windowfocus", "--sync", self.id)
         deadline = time.monotonic() + WAIT_SECONDS
@@ -120,20 +131,17 @@ class Window:
         wanted = {name: self.count(f"key {name}") + names.count(name) for name in names}
         xdotool(self.env, "key", "--delay", "0", *(XDOTOOL_KEYS.get(name, name) for name in names))
 
-        def handled(lines: list[str]) -> bool:
-            return all(lines.count(f"key {name}") >= n for name, n in wanted.items())
-
-        self.wait(handled, f"keys {names}")
+        self.wait(lambda: all(self.counts[f"key {k}"] >= n for k, n in wanted.items()), f"keys {names}")
         self.wait_frames(frames)
 
-    def mouse(self, *args, event: str, frames: int = 2) -> None:
+    def mouse(self, *args, event: str, frames: int = 3) -> None:
         """xdotool ``ARGS`` (a mousemove in window pixels, a click, a button down or up), then wait for the window's
-        next mouse ``event`` line (move, drag, press, release) and ``frames`` frames (ImGui takes one input event
-        per frame)."""
-        self._read()
-        seen = sum(line.startswith(event + " ") for line in self.lines)
+        next mouse ``event`` line (move, drag, press, release) and ``frames`` frames. ImGui takes one button event
+        per frame and the panel acts after the scene is drawn: a click (press and release before one frame) is
+        pressed in the first frame, released (acting) in the second and shown in the third."""
+        seen = self.count(event)
         xdotool(self.env, *(self.id if a == "WINDOW" else a for a in args))
-        self.wait(lambda lines: sum(line.startswith(event + " ") for line in lines) > seen, f"a mouse {event}")
+        self.wait(lambda: self.counts[event] > seen, f"a mouse {event}")
         self.wait_frames(frames)
 
     def screenshot(self, scene: str) -> np.ndarray:
@@ -212,7 +220,7 @@ def test_view_pauses_with_a_message_when_the_state_diverges(display, tmp_path):
     the message in the overlay and prints it once."""
     with viewer_app(display, tmp_path, "cloth", "--set", "res=16,16", "stiffness=1e20", "--size", "320x240") as window:
         # the watch reads the state back every CHECK_SECONDS (2 s)
-        window.wait(lambda lines: "diverged" in lines, "the divergence")
+        window.wait(lambda: window.counts["diverged"], "the divergence")
         window.wait_frames(2)
         shot = window.screenshot("cloth")
         window.wait_frames(5)  # frames drawn while paused: the message is not printed again
@@ -220,7 +228,7 @@ def test_view_pauses_with_a_message_when_the_state_diverges(display, tmp_path):
     err = window.err
     lines = [line for line in err.splitlines() if "diverged" in line]
     assert len(lines) == 1 and "pos" in lines[0] and "stiffness=1e+20" in lines[0], err
-    assert window.lines.count("diverged") == 1, "the window found the divergence more than once"
+    assert window.count("diverged") == 1, "the window found the divergence more than once"
     drawn = foreground(shot, view_class(scenes()["cloth"]).background)
     assert drawn[:120, :200].mean() > 0.5, "no message panel at the top left"
     assert drawn[170:].mean() < 0.02, "something besides the message was drawn"
@@ -258,6 +266,10 @@ def test_panel_opens_and_dragged_sliders_change_the_simulation(display, tmp_path
         window.mouse("mouseup", "1", event="release")
 
     with viewer_app(display, tmp_path, "boids", "--set", "max_object_num=512", "--size", "900x600") as window:
+        # the boids start as a ball and spread out: from 2 to 4 simulated seconds they cover 15 to 25 % of the scene's
+        # part of the window (1 boid: 0.5 %), before many fly out of view (about 1 % at 8 s); the max_speed drag
+        # below nearly stops them
+        window.wait(lambda: window.sim_time >= 2.0, "2 s of simulated time")
         closed = window.screenshot("boids")
         window.key("h", frames=2)
         opened = window.screenshot("boids")

@@ -58,10 +58,10 @@ SMOOTHING = 0.05
 """Weight of the newest frame in the HUD's running averages."""
 MOUSE_HELP = "mouse: left drag = orbit (3D) or the scene's brush (2D), right drag = orbit, wheel = zoom"
 TRACE_ENV = "UGPCL_VIEW_TRACE"
-"""A file the window appends one line to for each frame it drew (``frame N``), key it handled (``key NAME``, after
-the key's action; NAME is None for an unbound key), mouse event it got (``press BUTTON X Y``, ``release ...``,
-``move X Y``, ``drag X Y``) and divergence it found (``diverged``): tests/test_window.py drives a real window by
-waiting for these lines, not by sleeping."""
+"""A file the window appends one line to for each frame it drew (``frame N SIM_TIME``), key it handled
+(``key NAME``, after the key's action; NAME is None for an unbound key), mouse event it got (``press BUTTON X Y``,
+``release ...``, ``move X Y``, ``drag X Y``) and divergence it found (``diverged``): tests/test_window.py drives a
+real window by waiting for these lines, not by sleeping."""
 
 
 def key_rows(scene) -> list[tuple[str, str]]:
@@ -177,7 +177,7 @@ class ViewerWindow(mglw.WindowConfig):
         if self.show_panel:
             self.draw_panel()
         self.frames += 1
-        self.trace(f"frame {self.frames}")
+        self.trace(f"frame {self.frames} {self.sim.time:.6f}")
 
     def trace(self, line: str) -> None:
         """One line to the UGPCL_VIEW_TRACE file, if there is one."""
