@@ -122,7 +122,8 @@ def test_int_fields_have_bounds_an_int32_holds():
 
 def test_values_outside_the_range_are_rejected_naming_field_and_range():
     def check(scene, f):
-        cls, meta = type(scene.params()), f.metadata
+        defaults, meta = scene.params(), f.metadata
+        cls = type(defaults)
         if float in _parts(cls, f):  # the nearest float32-or-wider values outside
             above, below = math.nextafter(meta["hi"], math.inf), math.nextafter(meta["lo"], -math.inf)
         else:
@@ -131,7 +132,7 @@ def test_values_outside_the_range_are_rejected_naming_field_and_range():
         for number in (above, below, 1e39, -1e39):
             value = _value(cls, f, number)
             if isinstance(value, tuple):  # one bad component is enough
-                value = (value[0], *getattr(scene.params(), f.name)[1:])
+                value = (value[0], *getattr(defaults, f.name)[1:])
             with pytest.raises(ValueError) as err:
                 scene.params(**{f.name: value})
             assert str(err.value) == f"{f.name} must be {_describe_range(meta)}, got {value!r}"

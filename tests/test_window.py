@@ -1,5 +1,7 @@
-"""`ugpcl-view` in a real window: Xvfb for the screen, xdotool for the keys (Debian xvfb + xdotool; `make`
-installs them)."""
+"""`ugpcl-view` in a real window: Xvfb for the screen, xdotool for the keys and the mouse (Debian xvfb + xdotool;
+`make` installs them). The window reports every frame it draws and every key and mouse event it handles to a trace
+file (``UGPCL_VIEW_TRACE``, viewer/app.py): each step of a test waits for the line that says the window got it and
+for the frames that show it, never for a fixed time, so a test takes as long as the window needs and no longer."""
 
 from __future__ import annotations
 
@@ -45,6 +47,11 @@ def display():
 def xdotool(env, *args) -> str:
     return subprocess.run(["xdotool", *args], env=env, capture_output=True, text=True, timeout=30).stdout.strip()
 
+
+XDOTOOL_KEYS = {"tab": "Tab", "esc": "Escape", "up": "Up", "down": "Down", "left": "Left", "right": "Right"}
+XDOTOOL_KEYS |= {"f9": "F9", "f10": "F10"}
+XDOTOOL_KEYS |= {"[": "bracketleft", "]": "bracketright", "+": "plus", "-": "minus", ",": "comma", ".": "period"}
+"""xdotool's names for the keys the viewer's tables name otherwise."""
 
 WAIT_SECONDS = 60.0
 """How long a window may take to report a frame, a key or a mouse event before the test fails (a busy machine)."""
@@ -189,17 +196,11 @@ def test_view_opens_a_window_and_obeys_keys(display, tmp_path):
     assert "wrote out/boids-" in err
 
 
-XDOTOOL_KEYS = {"tab": "Tab", "esc": "Escape", "up": "Up", "down": "Down", "left": "Left", "right": "Right"}
-XDOTOOL_KEYS |= {"f9": "F9", "f10": "F10"}
-XDOTOOL_KEYS |= {"[": "bracketleft", "]": "bracketright", "+": "plus", "-": "minus", ",": "comma", ".": "period"}
-
-
 @pytest.mark.gl
 @pytest.mark.parametrize("name", sorted(scenes()))
 def test_every_scene_opens_and_takes_every_key(display, tmp_path, name):
     """Each scene's window opens, handles every key of its table (then H and N) and draws a frame after them, and
-    closes on Esc. A screenshot before the keys shows the window is live; one after, that it still
-    is."""
+    closes on Esc. A screenshot before the keys shows the window is live; one after, that it still is."""
     view_keys = [binding.key for binding in view_class(scenes()[name]).keys]
     with viewer_app(display, tmp_path, name, "--size", "320x240") as window:
         window.screenshot(name)
