@@ -58,12 +58,10 @@ def test_loop_is_animated_and_shows_the_scene_moving(name):
         share = foreground(pixels, most_common_colour(pixels)).mean()
         assert share > 0.003, f"{path.name} frame {k}: only {share:.2%} of it differs from its background"
     # a visible change: more than 40 levels in more than 0.1 % of the pixels (lossy noise stays far below 40)
-    moved = [
-        (np.abs(a.astype(int) - b).max(axis=-1) > 40).mean() > 0.001
-        for a, b in zip(frames[:-1], frames[1:], strict=True)
-    ]
+    frames = [f.astype(np.int16) for f in frames]
+    moved = [(np.abs(a - b).max(axis=-1) > 40).mean() > 0.001 for a, b in zip(frames[:-1], frames[1:], strict=True)]
     assert np.mean(moved) > 0.5, f"{path.name}: only {sum(moved)} of {len(moved)} frame steps show motion"
-    whole = max((np.abs(frames[0].astype(int) - f).max(axis=-1) > 40).mean() for f in frames)
+    whole = max((np.abs(frames[0] - f).max(axis=-1) > 40).mean() for f in frames)
     assert whole > 0.005, f"{path.name}: no frame differs from the first in more than {whole:.2%} of the pixels"
 
 
@@ -93,10 +91,14 @@ def test_record_animation_replays_the_ear_list(runtime, gl, tmp_path):
 @pytest.mark.gl
 def test_a_swing_turns_the_camera_and_comes_back(runtime, gl, tmp_path, monkeypatch):
     """multiplane_projection does not change with time: its loop swings the orbit camera one sine period, so the
-    frames differ and the loop's end meets its start (the frame after the last would be the first again)."""
+    frames differ and the loop's end meets its start (the frame after the last would be the first again). Faces at
+    256 x 128 rather than the book's 1024 x 512 (each step renders them again): the swing moves the room's edges by
+    as many pixels (the measures below agree within 2 %) for 1/16 of the kernel work."""
     import ugpcl.docs as docs
 
-    anim = Animation(animated()["multiplane_projection"].shows, frames=8, swing=30.0)
+    anim = Animation(
+        animated()["multiplane_projection"].shows, frames=8, swing=30.0, overrides={"face_resolution": (256, 128)}
+    )
     path = tmp_path / "m.webp"
     assert docs.record_animation(runtime, "multiplane_projection", path, anim) == 8
     frames, _ = frames_of(path)

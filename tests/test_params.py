@@ -31,18 +31,44 @@ def _parts(cls, f) -> tuple:
     return typing.get_args(kind) if typing.get_origin(kind) is tuple else (kind,)
 
 
-def _fields(kinds: tuple[type, ...]) -> list:
-    """(scene, field) for every field of every Params with a component of one of ``kinds``."""
-    return [
-        pytest.param(scene, f, id=f"{scene.name}.{f.name}")
-        for cls, scene in FIRST_SCENE.items()
-        for f in dataclasses.fields(cls)
-        if any(p in kinds for p in _parts(cls, f))
-    ]
+def _fields(kinds: tuple[type, ...], *, choices: bool | None = False, only: bool = False) -> list[tuple]:
+    """(scene, field) for every field of every Params with a component of one of ``kinds`` (``only``: every
+    component of one of them); ``choices`` False keeps the fields with a range, True those with choices, None both.
+    A check runs only over the fields it applies to: none passes by returning early."""
+    cases = []
+    for cls, scene in FIRST_SCENE.items():
+        for f in dataclasses.fields(cls):
+            parts = _parts(cls, f)
+            if not (all if only else any)(p in kinds for p in parts):
+                continue
+            if choices is None or (f.metadata.get("choices") is not None) == choices:
+                cases.append((scene, f))
+    return cases
+
+
+def _each(cases: list[tuple], check, label=lambda scene, f: f"{scene.name}.{f.name}") -> None:
+    """``check(scene, item)`` for every case (an item is a field, or a rule of ``limits``), then one assertion
+    naming each case that failed (``label``) and why (a failed assert, a pytest.raises that saw nothing, an
+    unexpected error): one test, every field's verdict."""
+    assert cases, "nothing to check: the selection is wrong"
+    failures = []
+    for scene, item in cases:
+        try:
+            check(scene, item)
+        except (Exception, pytest.fail.Exception) as err:
+            failures.append(f"{label(scene, item)}: {type(err).__name__}: {err}")
+    assert not failures, f"{len(failures)} of {len(cases)} fail:\n" + "\n".join(failures)
 
 
 FLOATS = _fields((float,))
+"""Fields with a float component and a range (no float field takes choices)."""
+INTS = _fields((int,), only=True, choices=None)
+"""Fields all of whose components are ints, with a range or choices (a mixed tuple like sph_2d's mouse is a float
+field: FLOATS checks its bounds)."""
 NUMBERS = _fields((float, int))
+"""Numeric fields with a range."""
+CHOICES = _fields((float, int, str), choices=True)
+"""Fields that take one of a list of values."""
 
 
 def _value(cls, f, number) -> object:
@@ -60,31 +86,33 @@ def _broke(rule: str, err: Exception) -> bool:
 # {{{ declared ranges
 
 
-@pytest.mark.parametrize("scene", [pytest.param(s, id=name) for name, s in scenes().items()])
-def test_book_defaults_are_inside_their_ranges(scene):
-    params = scene.params()
-    assert params.to_dict() == {**params.to_dict(), **scene.defaults}
+def test_book_defaults_are_inside_their_ranges():
+    def check(scene, _):
+        params = scene.params()
+        assert params.to_dict() == {**params.to_dict(), **scene.defaults}
+
+    _each([(scene, None) for scene in scenes().values()], check, label=lambda scene, _: scene.name)
 
 
-@pytest.mark.parametrize("scene, f", FLOATS)
-def test_float_fields_have_finite_bounds_inside_float32(scene, f):
-    meta = f.metadata
-    assert meta, f"{f.name}: declare its range with param(default, lo, hi)"
-    if meta["choices"] is not None:
-        return
-    lo, hi = meta["lo"], meta["hi"]
-    assert lo is not None and hi is not None, f"{f.name}: range {_describe_range(meta)} is not finite"
-    assert -FLOAT32_MAX <= lo <= hi <= FLOAT32_MAX, f"{f.name}: range {_describe_range(meta)} leaves float32"
+def test_float_fields_have_finite_bounds_inside_float32():
+    def check(scene, f):
+        meta = f.metadata
+        assert meta, f"{f.name}: declare its range with param(default, lo, hi)"
+        lo, hi = meta["lo"], meta["hi"]
+        assert lo is not None and hi is not None, f"{f.name}: range {_describe_range(meta)} is not finite"
+        assert -FLOAT32_MAX <= lo <= hi <= FLOAT32_MAX, f"{f.name}: range {_describe_range(meta)} leaves float32"
+
+    _each(FLOATS, check)
 
 
-@pytest.mark.parametrize("scene, f", _fields((int,)))
-def test_int_fields_have_bounds_an_int32_holds(scene, f):
-    meta = f.metadata
-    if float in _parts(type(scene.params()), f):
-        return  # a mixed tuple (sph_2d mouse): the float test covers its bounds
-    assert meta, f"{f.name}: declare its range with param(default, lo, hi)"
-    values = meta["choices"] if meta["choices"] is not None else (meta["lo"], meta["hi"])
-    assert None not in values and all(-(2**31) <= v < 2**31 for v in values), f"{f.name}: {_describe_range(meta)}"
+def test_int_fields_have_bounds_an_int32_holds():
+    def check(scene, f):
+        meta = f.metadata
+        assert meta, f"{f.name}: declare its range with param(default, lo, hi)"
+        values = meta["choices"] if meta["choices"] is not None else (meta["lo"], meta["hi"])
+        assert None not in values and all(-(2**31) <= v < 2**31 for v in values), f"{f.name}: {_describe_range(meta)}"
+
+    _each(INTS, check)
 
 
 # }}}
@@ -92,54 +120,69 @@ def test_int_fields_have_bounds_an_int32_holds(scene, f):
 # {{{ rejections name the parameter, the value and the range
 
 
-@pytest.mark.parametrize("scene, f", NUMBERS)
-def test_values_outside_the_range_are_rejected_naming_field_and_range(scene, f):
-    cls, meta = type(scene.params()), f.metadata
-    if meta["choices"] is not None:
-        return
-    if float in _parts(cls, f):  # the nearest float32-or-wider values outside
-        above, below = math.nextafter(meta["hi"], math.inf), math.nextafter(meta["lo"], -math.inf)
-    else:
-        above, below = meta["hi"] + 1, meta["lo"] - 1
-    below = meta["lo"] if meta["lo_open"] else below
-    for number in (above, below, 1e39, -1e39):
-        value = _value(cls, f, number)
-        if isinstance(value, tuple):  # one bad component is enough
-            value = (value[0], *getattr(scene.params(), f.name)[1:])
+def test_values_outside_the_range_are_rejected_naming_field_and_range():
+    def check(scene, f):
+        defaults, meta = scene.params(), f.metadata
+        cls = type(defaults)
+        if float in _parts(cls, f):  # the nearest float32-or-wider values outside
+            above, below = math.nextafter(meta["hi"], math.inf), math.nextafter(meta["lo"], -math.inf)
+        else:
+            above, below = meta["hi"] + 1, meta["lo"] - 1
+        below = meta["lo"] if meta["lo_open"] else below
+        for number in (above, below, 1e39, -1e39):
+            value = _value(cls, f, number)
+            if isinstance(value, tuple):  # one bad component is enough
+                value = (value[0], *getattr(defaults, f.name)[1:])
+            with pytest.raises(ValueError) as err:
+                scene.params(**{f.name: value})
+            assert str(err.value) == f"{f.name} must be {_describe_range(meta)}, got {value!r}"
+
+    _each(NUMBERS, check)
+
+
+def test_values_outside_the_choices_are_rejected_naming_field_and_choices():
+    def check(scene, f):
+        choices = f.metadata["choices"]
+        value = "not-a-choice" if isinstance(choices[0], str) else max(choices) + 1
         with pytest.raises(ValueError) as err:
             scene.params(**{f.name: value})
-        assert str(err.value) == f"{f.name} must be {_describe_range(meta)}, got {value!r}"
+        assert str(err.value) == f"{f.name} must be {_describe_range(f.metadata)}, got {value!r}"
+
+    _each(CHOICES, check)
 
 
-@pytest.mark.parametrize("scene, f", FLOATS)
-def test_the_upper_bound_itself_is_accepted(scene, f):
-    cls, hi = type(scene.params()), f.metadata["hi"]
-    if hi is None:  # choices
-        return
+def test_the_upper_bound_itself_is_accepted():
     together = {"mass_min": "mass_max"}  # mass_min <= mass_max: raise both
-    overrides = {f.name: _value(cls, f, hi)}
-    if f.name in together:
-        overrides[together[f.name]] = hi
-    try:
-        scene.params(**overrides)
-    except ValueError as err:  # only a declared limit of the field may refuse its bound (root_inner < root_outer)
-        refusing = [rule for rule in scene.limits() if re.search(rf"\b{f.name}\b", rule) and _broke(rule, err)]
-        assert refusing, f"{f.name}={hi} is refused by a rule missing from {cls.__qualname__}.limits: {err}"
-        return
-    assert getattr(scene.params(**overrides), f.name) == overrides[f.name]
+
+    def check(scene, f):
+        cls, hi = type(scene.params()), f.metadata["hi"]
+        overrides = {f.name: _value(cls, f, hi)}
+        if f.name in together:
+            overrides[together[f.name]] = hi
+        try:
+            params = scene.params(**overrides)
+        except ValueError as err:  # only a declared limit of the field may refuse its bound (root_inner < root_outer)
+            refusing = [rule for rule in scene.limits() if re.search(rf"\b{f.name}\b", rule) and _broke(rule, err)]
+            assert refusing, f"{f.name}={hi} is refused by a rule missing from {cls.__qualname__}.limits: {err}"
+        else:
+            assert getattr(params, f.name) == overrides[f.name]
+
+    _each(FLOATS, check)
 
 
-@pytest.mark.parametrize("scene, f", NUMBERS + _fields((bool,)))
-def test_parse_errors_give_the_type_and_the_range(scene, f):
-    cls = type(scene.params())
-    with pytest.raises(ValueError) as err:
-        cls.parse(f.name, "abc")
-    message = str(err.value)
-    assert message.startswith(f"{f.name} expects ") and message.endswith(", got 'abc'")
-    if bool in _parts(cls, f):
-        assert "(true|false|yes|no|on|off|1|0)" in message
-    else:
-        assert _describe_range(f.metadata) in message, message
+def test_parse_errors_give_the_type_and_the_range():
+    def check(scene, f):
+        cls = type(scene.params())
+        with pytest.raises(ValueError) as err:
+            cls.parse(f.name, "abc")
+        message = str(err.value)
+        assert message.startswith(f"{f.name} expects ") and message.endswith(", got 'abc'"), message
+        if bool in _parts(cls, f):
+            assert "(true|false|yes|no|on|off|1|0)" in message, message
+        else:
+            assert _describe_range(f.metadata) in message, message
+
+    _each(_fields((float, int, bool), choices=None), check)
 
 
 def test_messages_for_every_kind_of_bad_value():
@@ -219,25 +262,24 @@ LIMITS = {
 }
 """For each rule of every ``Params.limits``: a set that breaks it by one, and the set on its edge, which passes."""
 
-RULES = [
-    pytest.param(scene, rule, id=f"{scene.name}: {rule}") for scene in FIRST_SCENE.values() for rule in scene.limits()
-]
 
+def test_every_limit_is_enforced_up_to_its_edge():
+    def check(scene, rule):
+        assert rule in LIMITS, f"add a breaking and an edge case for {rule!r} to LIMITS"
+        bad, edge = LIMITS[rule]
+        scene.params(**edge)
+        with pytest.raises(ValueError) as err:
+            scene.params(**bad)
+        message = str(err.value)
+        assert _broke(rule, err.value), message
+        named = [name for name in scene.params().names() if re.search(rf"\b{name}\b", rule)]
+        assert named and set(bad) <= set(named), f"{rule!r} names {named}"
+        defaults = scene.params().to_dict()
+        for name in named:  # every field of the rule with the value it had
+            assert f"{name}={show_value(bad.get(name, defaults[name]))}" in message, message
 
-@pytest.mark.parametrize("scene, rule", RULES)
-def test_every_limit_is_enforced_up_to_its_edge(scene, rule):
-    assert rule in LIMITS, f"add a breaking and an edge case for {rule!r} to LIMITS"
-    bad, edge = LIMITS[rule]
-    scene.params(**edge)
-    with pytest.raises(ValueError) as err:
-        scene.params(**bad)
-    message = str(err.value)
-    assert _broke(rule, err.value), message
-    named = [name for name in scene.params().names() if re.search(rf"\b{name}\b", rule)]
-    assert named and set(bad) <= set(named), f"{rule!r} names {named}"
-    defaults = scene.params().to_dict()
-    for name in named:  # every field of the rule with the value it had
-        assert f"{name}={show_value(bad.get(name, defaults[name]))}" in message, message
+    rules = [(scene, rule) for scene in FIRST_SCENE.values() for rule in scene.limits()]
+    _each(rules, check, label=lambda scene, rule: f"{scene.name}: {rule}")
 
 
 def test_limits_are_shown_under_the_parameter_table():

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 import pytest
 
 import ugpcl.runtime
+from ugpcl.registry import scenes
 from ugpcl.runtime import BuildError, DeviceError, Runtime, choose_device, round_up
 from ugpcl.scene import Params, param
 
@@ -99,13 +101,105 @@ def test_zeros_fills_every_piece_of_struct_arrays(runtime, monkeypatch):
     """Runtime.zeros fills its first piece and copies it over the rest (NVIDIA fills neither struct dtypes nor past
     4 GiB):
     with 1 KiB pieces, a 76-byte struct array of 100 items comes back all zero over a buffer that held ones."""
-    import numpy as np
-
-    import ugpcl.runtime
-
     dtype = np.dtype([("position", "<f4", (3, 3)), ("normal", "<f4", (3, 3)), ("cell", "<u4")])
     dirty = runtime.to_device(np.frombuffer(np.full(100 * dtype.itemsize, 0xFF, np.uint8).tobytes(), dtype))
     del dirty  # its memory is likely reused by the next allocation: zeros must not rely on fresh memory
     monkeypatch.setattr(ugpcl.runtime, "ZERO_FILL_PIECE", 1024)
     array = runtime.zeros(100, dtype)
     assert array.get().tobytes() == bytes(100 * dtype.itemsize)
+
+
+# {{{ typed launches: arguments checked against the kernel's declaration
+
+
+@pytest.fixture
+def probe(runtime):
+    """LaunchProbe(a, b, out: __global float*, n: int, scale: float, time: float, unused: int): out[i] = a[i] *
+    scale + b[i] + time for i < n; with its buffers (a = 0..n-1, b = 1)."""
+    n = 40
+    a = runtime.to_device(np.arange(n, dtype=np.float32))
+    b = runtime.to_device(np.ones(n, np.float32))
+    out = runtime.zeros(n, np.float32)
+    return runtime.program("probes").kernel("LaunchProbe"), n, a, b, out
+
+
+def test_scalars_are_converted_to_the_declared_type(probe):
+    kernel, n, a, b, out = probe
+    kernel.over(n, 16, a, b, out, n, np.int32(3), np.float64(0.1), 0)  # an int32 for float scale; a float64 time
+    expected = np.arange(n, dtype=np.float32) * np.float32(3.0) + np.float32(1.0) + np.float32(0.1)
+    np.testing.assert_array_equal(out.get(), expected)
+    kernel.over(n, 16, a, b, out, np.int64(n // 2), 2, 0.5, np.int16(7))  # Python and other-width numbers
+    got = out.get()
+    np.testing.assert_array_equal(got[: n // 2], np.arange(n // 2, dtype=np.float32) * 2 + 1.5)
+    np.testing.assert_array_equal(got[n // 2 :], expected[n // 2 :])  # i >= n: untouched
+
+
+def _refused(kernel, *args) -> str:
+    with pytest.raises(ugpcl.runtime.LaunchError) as err:
+        kernel.over(40, 16, *args)
+    message = str(err.value)
+    assert "\n" not in message and message.startswith("LaunchProbe"), message
+    return message
+
+
+def test_wrong_arguments_are_refused_naming_kernel_and_argument(probe):
+    kernel, n, a, b, out = probe
+    message = _refused(kernel, a, b, out, a, 3.0, 0.0, 0)  # a buffer for int n
+    assert "argument n (int) got an array of float32" in message, message
+    message = _refused(kernel, np.float32(1.0), b, out, n, 3.0, 0.0, 0)  # a scalar for buffer a
+    assert "argument a (__global float*) got float32" in message, message
+    message = _refused(kernel, a, b, out, n, 3.0, 0.0)  # unused is missing
+    assert "6 arguments given, missing unused (int)" in message, message
+    message = _refused(kernel, a, b, out, 2**31, 3.0, 0.0, 0)  # past int32
+    assert "argument n (int) got int 2147483648: outside int32" in message, message
+    message = _refused(kernel, a, b, out, n, 1e39, 0.0, 0)  # past float32
+    assert "argument scale (float) got float 1e+39: outside the range of float32" in message, message
+    message = _refused(kernel, a, b, out, n, 3.0, np.float64(-1e39), 0)
+    assert "argument time (float)" in message and "outside the range of float32" in message, message
+
+
+SHAPE_PROBE = """
+__kernel void ShapeProbe(__global int* out) {
+    if (get_global_id(0) == 0 && get_global_id(1) == 0) {
+        out[0] = get_global_size(0); out[1] = get_global_size(1);
+        out[2] = get_local_size(0); out[3] = get_local_size(1);
+    }
+    atomic_inc(&out[4]);
+}
+"""
+
+
+def test_over_pads_a_2d_shape_to_whole_groups_and_skips_a_zero_axis(runtime):
+    kernel = runtime.program_from_source(SHAPE_PROBE, "shape_probe.cl").kernel("ShapeProbe")
+    out = runtime.zeros(5, np.int32)
+    assert kernel.over((10, 5), (4, 4), out) is not None
+    assert out.get().tolist() == [12, 8, 4, 4, 96]  # 10 x 5 padded to 3 x 2 groups of 4 x 4
+    for empty in ((0, 5), (10, 0), (-1, 5)):
+        assert kernel.over(empty, (4, 4), out) is None, empty
+    runtime.finish()
+    assert out.get()[4] == 96, "a launch with an empty axis ran work-items"
+
+
+def test_every_scene_refuses_a_bad_dt_before_stepping(runtime):
+    """``Simulation.step`` checks dt first: NaN and a negative dt raise one ValueError naming dt, and no kernel of
+    the step runs (``_step`` is never called; steps and time stay 0). Each scene at its CPU sizes."""
+    failures = []
+    for name, scene in scenes().items():
+        sim = scene.create(runtime, 0, **scene.interactive)
+        calls = []
+        sim._step = lambda dt, calls=calls: calls.append(dt)  # noqa: B023 (bound per scene through the default)
+        for dt in (float("nan"), -1):
+            try:
+                sim.step(dt)
+            except ValueError as err:
+                if not (str(err).startswith("dt must be") and "\n" not in str(err)):
+                    failures.append(f"{name}: step({dt}) raised {err!r}")
+            else:
+                failures.append(f"{name}: step({dt}) raised nothing")
+        if calls or sim.steps or sim.time:
+            failures.append(f"{name}: stepped {calls} (steps {sim.steps}, time {sim.time}) on a bad dt")
+        del sim
+    assert not failures, "\n".join(failures)
+
+
+# }}}

@@ -49,6 +49,11 @@ PANEL_OPEN_FROM = 960
 SMOOTHING = 0.05
 """Weight of the newest frame in the HUD's running averages."""
 MOUSE_HELP = "mouse: left drag = orbit (3D) or the scene's brush (2D), right drag = orbit, wheel = zoom"
+TRACE_ENV = "UGPCL_VIEW_TRACE"
+"""A file the window appends one line to for each frame it drew (``frame N SIM_TIME``), key it handled
+(``key NAME``, after the key's action; NAME is None for an unbound key), mouse event it got (``press BUTTON X Y``,
+``release ...``, ``move X Y``, ``drag X Y``) and divergence it found (``diverged``): tests/test_window.py drives a
+real window by waiting for these lines, not by sleeping."""
 
 
 def key_rows(scene) -> list[tuple[str, str]]:
@@ -100,6 +105,9 @@ class ViewerWindow(mglw.WindowConfig):
         self.show_panel = self.wnd.size[0] >= PANEL_OPEN_FROM
         self.times = {"frame": 0.0, "sim": 0.0, "draw": 0.0}  # running averages in seconds (the HUD)
         self.recorder: Recorder | None = None
+        trace = os.environ.get(TRACE_ENV)
+        self.trace_file = open(trace, "a", buffering=1) if trace else None  # noqa: SIM115 (open until the window closes)
+        self.frames = 0
         sized = f"; sized for the CPU: {_assignments(self.sized)} (--set wins)" if self.sized else ""
         print(f"ugpcl-view: {self.scene.name} on {self.runtime.label}{sized}; H shows the panel", file=sys.stderr)
 
@@ -160,6 +168,13 @@ class ViewerWindow(mglw.WindowConfig):
         self.overlay.draw(self.wnd.buffer_size)
         if self.show_panel:
             self.draw_panel()
+        self.frames += 1
+        self.trace(f"frame {self.frames} {self.sim.time:.6f}")
+
+    def trace(self, line: str) -> None:
+        """One line to the UGPCL_VIEW_TRACE file, if there is one."""
+        if self.trace_file:
+            self.trace_file.write(line + "\n")
 
     def _average(self, frame: float, sim: float, draw: float) -> None:
         for key, value in (("frame", frame), ("sim", sim), ("draw", draw)):
@@ -256,6 +271,7 @@ class ViewerWindow(mglw.WindowConfig):
             self.diverged = [*str(err).split(": "), "parameters changed:", *(changed or ["none"])]
             self.paused = True
             print(f"ugpcl-view: {err}; parameters changed: {' '.join(changed) or 'none'}; paused", file=sys.stderr)
+            self.trace("diverged")
 
     def _overlay_lines(self) -> list[str]:
         if self.diverged:  # short lines: the window may be small
@@ -286,11 +302,12 @@ class ViewerWindow(mglw.WindowConfig):
             io.add_key_event(mod, bool(held))
         if self.show_panel and io.want_text_input:  # typing into a field: keys are text, not shortcuts
             self.imgui.key_event(key, action, modifiers)
-            return
         # otherwise ImGui never sees the keys: Tab would move its focus into a slider's text field, and the
         # scenes' own Tab, arrows and space are theirs
-        if action == self.wnd.keys.ACTION_PRESS:
+        elif action == self.wnd.keys.ACTION_PRESS:
             self.press(self.key_names.get(key))
+        if action == self.wnd.keys.ACTION_PRESS:
+            self.trace(f"key {self.key_names.get(key)}")
 
     def on_unicode_char_entered(self, char: str) -> None:
         self.imgui.unicode_char_entered(char)
@@ -300,6 +317,7 @@ class ViewerWindow(mglw.WindowConfig):
 
     def on_mouse_position_event(self, x: int, y: int, dx: int, dy: int) -> None:
         self.imgui.mouse_position_event(x, y, dx, dy)
+        self.trace(f"move {x} {y}")
 
     def press(self, name: str | None) -> None:
         """Run the action bound to key ``name`` (shared keys first, then the view's)."""
@@ -316,6 +334,7 @@ class ViewerWindow(mglw.WindowConfig):
                 return
 
     def on_mouse_press_event(self, x: int, y: int, button: int) -> None:
+        self.trace(f"press {button} {x} {y}")
         self.imgui.mouse_press_event(x, y, button)
         self.in_panel = self._panel_has_mouse()  # a press on the panel is the panel's until released
         if self.in_panel:
@@ -326,6 +345,7 @@ class ViewerWindow(mglw.WindowConfig):
             self.view.on_drag(self.camera, x / w, 1.0 - y / h, 0.0, 0.0)
 
     def on_mouse_drag_event(self, x: int, y: int, dx: int, dy: int) -> None:
+        self.trace(f"drag {x} {y}")
         self.imgui.mouse_drag_event(x, y, dx, dy)
         if self.in_panel:
             return
@@ -337,6 +357,7 @@ class ViewerWindow(mglw.WindowConfig):
             self.camera.drag(dx / w * 600, -dy / h * 600)
 
     def on_mouse_release_event(self, x: int, y: int, button: int) -> None:
+        self.trace(f"release {button} {x} {y}")
         self.imgui.mouse_release_event(x, y, button)
         if self.in_panel:
             self.in_panel = False
@@ -396,6 +417,9 @@ class ViewerWindow(mglw.WindowConfig):
     def on_close(self) -> None:
         if self.recorder:  # closing the window finishes the recording under way
             self.stop_recording()
+        if self.trace_file:
+            self.trace_file.close()
+            self.trace_file = None
 
     def quit(self) -> None:
         self.wnd.close()
