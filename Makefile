@@ -39,7 +39,7 @@ run: $(STAMP) ## headless main job: 4096 boids, 600 steps -> out/boids.npz + out
 	$(BIN)/ugpcl run boids --steps 600 --seed 0 --set max_object_num=4096 --out out/boids.npz --png out/boids.png
 
 test: $(STAMP) ## the test suite on PoCL (CPU)
-	$(BIN)/pytest -m "not oclgrind" -q
+	$(BIN)/pytest -m "not oclgrind" -q --durations=15
 
 test-oclgrind: $(STAMP) ## every kernel on the Oclgrind simulator: data races, out-of-bounds access
 	OCLGRIND_DATA_RACES=1 $(BIN)/pytest -m oclgrind -q

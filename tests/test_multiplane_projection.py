@@ -111,7 +111,7 @@ def test_golden_table_at_the_centre_and_off_centre(runtime):
 
 def test_projection_equals_glm_frustum_and_the_books_lens_shift_for_random_eyes(seed):
     rng = np.random.default_rng(seed)
-    eyes = random_eyes(rng, 10_000)
+    eyes = random_eyes(rng, 2_000)  # 12,000 face matrices: any formula error shows in the first few
     worst_glm = worst_book = 0.0
     for eye in eyes:
         cameras = face_cameras(ROOM, eye, 6)

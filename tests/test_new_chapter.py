@@ -156,7 +156,9 @@ def test_the_template_test_module_passes(chapter):
         chapter,
         *("-m", "pytest", "-p", "no:cacheprovider", "-v", "-c", str(ROOT / "setup.cfg")),
         *("-p", "conftest", "-p", "template_chapter", str(chapter / "tests" / f"test_{STEM}.py")),
-        PYTHONPATH=os.pathsep.join([str(ROOT / "tests"), str(chapter / "plugins")]),
+        PYTHONPATH=os.pathsep.join(
+            [str(ROOT / "tests"), str(chapter / "plugins"), *filter(None, [os.environ.get("PYTHONPATH")])]
+        ),
     )
     assert result.returncode == 0, output(result)
     passed = re.findall(r"::(\w+)(?:\[.*?\])? PASSED", result.stdout)

@@ -288,6 +288,7 @@ SCENES = [
         Simulation,
         "Room projection: 5 (or 6) off-axis face cameras from one eye, seamless from the eye (vol.1 ch.9)",
         preview={"steps": 1},
+        interactive={"face_resolution": (256, 128)},  # 1024 x 512 faces march at ~3.5 s a frame on 2 PoCL cores
         animation=Animation(
             "the room and its projected walls do not change with time, so the camera swings round the room", swing=30.0
         ),
