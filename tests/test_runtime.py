@@ -203,3 +203,16 @@ def test_every_scene_refuses_a_bad_dt_before_stepping(runtime):
 
 
 # }}}
+
+
+def test_headers_are_inlined_and_errors_name_the_file_and_line(runtime):
+    """A program's headers are part of its source (no -I path in the build options, so the drivers' binary caches
+    hit from any checkout), and #line keeps a build error's file and line those of the text that has it."""
+    from ugpcl.runtime import BuildError
+
+    text = '#include "pool.h"\n#include "pool.h"\n__kernel void K(__global int* a) { a[0] = not_declared; }\n'
+    with pytest.raises(BuildError) as err:
+        runtime.program_from_source(text, "inline_probe.cl")
+    assert "inline_probe.cl:3:" in str(err.value), str(err.value)[:400]
+    program = runtime.program_from_source(text.replace("not_declared", "POOL_COUNT"), "inline_probe.cl")
+    assert not any(option.startswith("-I") for option in program.options)

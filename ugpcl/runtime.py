@@ -11,7 +11,6 @@ lists a CPU it cannot compile for (docs/architecture.md, "Devices").
 
 from __future__ import annotations
 
-import hashlib
 import math
 import os
 import re
@@ -403,6 +402,32 @@ def _format_define(value) -> str:
     return str(value)
 
 
+_INCLUDE = re.compile(r'[ \t]*#[ \t]*include[ \t]+"([^"]+)".*')
+
+
+def inline_headers(text: str, name: str, seen: set | None = None) -> str:
+    """``text`` with every ``#include "x.h"`` replaced by clkernels/include/x.h's own text (each header once, as its
+    include guard would), framed by ``#line`` so build logs and Oclgrind reports name the real file and line. The
+    source the driver sees is then the whole program: its binary caches (PoCL's, PyOpenCL's) hit for any checkout
+    or install path and miss whenever a header changes, and no ``-I`` path enters the build options."""
+    seen = set() if seen is None else seen
+    out = [f'#line 1 "{name}"']
+    for number, source_line in enumerate(text.split("\n"), start=1):
+        match = _INCLUDE.fullmatch(source_line)
+        if not match:
+            out.append(source_line)
+            continue
+        header = match[1]
+        if header not in seen:
+            seen.add(header)
+            path = INCLUDE_DIR / header
+            if not path.is_file():
+                raise BuildError(f'{name}:{number}: #include "{header}": no such header in {INCLUDE_DIR}')
+            out.append(inline_headers(path.read_text(), header, seen))
+        out.append(f'#line {number + 1} "{name}"')
+    return "\n".join(out)
+
+
 ARG_INFO = "-cl-kernel-arg-info"
 """Build option that keeps each kernel argument's name and type for ``Kernel`` to check launches against."""
 
@@ -495,17 +520,14 @@ class Runtime:
         return program
 
     def program_from_source(self, text: str, name: str = "<source>", **defines) -> Program:
-        """Build OpenCL C ``text`` as a ``clkernels/`` file is built (the include folder on the path, argument info
-        kept, ``-D`` defines): tests' own kernels launch through the same ``Kernel`` checks. Not cached."""
-        # '#line' makes build logs and Oclgrind reports name the real file; the header digest makes a changed
-        # header rebuild every program (the driver caches compare source text, not included files).
-        headers = hashlib.sha1(b"".join(p.read_bytes() for p in sorted(INCLUDE_DIR.glob("*.h")))).hexdigest()[:12]
-        source = f'// headers {headers}\n#line 1 "{name}"\n' + text
-        options = [f"-I{INCLUDE_DIR}", ARG_INFO] + [f"-D{k}={_format_define(v)}" for k, v in sorted(defines.items())]
+        """Build OpenCL C ``text`` as a ``clkernels/`` file is built (its headers inlined, argument info kept, ``-D``
+        defines): tests' own kernels launch through the same ``Kernel`` checks. Not cached here."""
+        source = inline_headers(text, name)
+        options = [ARG_INFO] + [f"-D{k}={_format_define(v)}" for k, v in sorted(defines.items())]
         try:
             program = cl.Program(self.context, source).build(options=options)
         except cl.RuntimeError as err:
-            raise BuildError(f"{name}: build failed on {self.label} with {' '.join(options[2:])}\n{err}") from None
+            raise BuildError(f"{name}: build failed on {self.label} with {' '.join(options[1:])}\n{err}") from None
         return Program(self, program, KERNEL_DIR / name, options)
 
     # }}}
