@@ -407,9 +407,10 @@ _INCLUDE = re.compile(r'[ \t]*#[ \t]*include[ \t]+"([^"]+)".*')
 
 def inline_headers(text: str, name: str, seen: set | None = None) -> str:
     """``text`` with every ``#include "x.h"`` replaced by clkernels/include/x.h's own text (each header once, as its
-    include guard would), framed by ``#line`` so build logs and Oclgrind reports name the real file and line. The
-    source the driver sees is then the whole program: its binary caches (PoCL's, PyOpenCL's) hit for any checkout
-    or install path and miss whenever a header changes, and no ``-I`` path enters the build options."""
+    include guard would), framed by ``#line`` so build logs and Oclgrind reports name the real file and line (where
+    the compiler honours it: PoCL and Oclgrind do, NVIDIA's log says ``<kernel>:N``). The source the driver sees is
+    the whole program, so a changed header always misses the binary caches, and no path of ours enters the build
+    options (PyOpenCL still adds its own include folder, so another virtualenv still builds afresh)."""
     seen = set() if seen is None else seen
     out = [f'#line 1 "{name}"']
     for number, source_line in enumerate(text.split("\n"), start=1):
