@@ -36,7 +36,7 @@ KERNEL_DIR = _kernel_dir()
 """The package's ``.cl`` files: the package data of ``ugpcl.clkernels`` (the top-level ``clkernels/`` folder of a
 checkout, installed or editable alike)."""
 INCLUDE_DIR = KERNEL_DIR / "include"
-"""The shared headers (``pool.h``, ``grid.h``, ``random.h`` ...): every program is built with ``-I`` this folder."""
+"""The shared headers (``pool.h``, ``grid.h``, ``random.h`` ...): ``inline_headers`` puts them into each program."""
 
 
 INSTALL_HINT = (
@@ -257,20 +257,10 @@ class Kernel:
         self.num_args = kernel.num_args
         self._given: list = [_UNSET] * self.num_args  # the object each argument was last set from
         self._set_bytes = getattr(kernel, "_set_arg_buf", kernel.set_arg)  # PyOpenCL's own invokers use it
-        self._args: tuple[KernelArg, ...] | None = None
-        self._exact: tuple = ()  # per argument: the numpy type set from its bytes unchecked (None: check)
-        self.args  # noqa: B018 (read the declaration now: a wrong launch is refused on its first call)
-        self._groups: dict = {}
-
-    @property
-    def args(self) -> tuple[KernelArg, ...]:
-        """The declared arguments, read once."""
-        if self._args is None:
-            self._args = tuple(_read_arg(self.cl, i) for i in range(self.num_args))
-            self._exact = tuple(
-                a.dtype.type if a.kind == "scalar" and a.dtype.names is None else None for a in self._args
-            )
-        return self._args
+        self.args = tuple(_read_arg(kernel, i) for i in range(self.num_args))  # the declaration, read once
+        # per argument: the numpy type whose scalars are set from their bytes unchecked (None: always check)
+        self._exact = tuple(a.dtype.type if a.kind == "scalar" and a.dtype.names is None else None for a in self.args)
+        self._groups: dict = {}  # work-group asked for -> work-group fitted (over)
 
     def __call__(self, global_size, local_size, *args) -> cl.Event:
         if len(args) != self.num_args:
@@ -305,16 +295,16 @@ class Kernel:
     # {{{ the checked paths
 
     def _fit(self, group, rank: int) -> tuple[int, ...]:
-        wanted = (group,) if isinstance(group, int | np.integer) else tuple(group)
+        wanted = (int(group),) if isinstance(group, int | np.integer) else tuple(int(g) for g in group)
         if len(wanted) != rank:
             raise LaunchError(f"{self.name}: a work-group of rank {len(wanted)} for a launch of rank {rank}")
         info = cl.kernel_work_group_info.COMPILE_WORK_GROUP_SIZE
         required = tuple(int(v) for v in self.cl.get_work_group_info(info, self.runtime.device))[:rank]
         if any(required):
-            if required != tuple(int(g) for g in wanted):
+            if required != wanted:
                 raise LaunchError(f"{self.name}: requires work-groups of {required}, got {wanted}")
             return required
-        return fitted_shape(tuple(int(g) for g in wanted), self.runtime.device, self.work_group_size())
+        return fitted_shape(wanted, self.runtime.device, self.work_group_size())
 
     def _set(self, i: int, arg) -> None:
         if type(arg) is self._exact[i]:  # a numpy scalar of exactly the declared type: its bytes, unchecked
@@ -359,7 +349,7 @@ class Kernel:
         if a.kind == "buffer":
             if isinstance(value, cla.Array):
                 return value.base_data if value.offset == 0 else value.data
-            if value is None or (isinstance(value, cl.Buffer)):
+            if value is None or isinstance(value, cl.Buffer):
                 return value
         elif a.kind == "local":
             if isinstance(value, cl.LocalMemory):
