@@ -3,6 +3,8 @@ PYTHON ?= python3
 VENV ?= .venv
 UGPCL_DEVICE ?=
 SCENE ?= boids
+# pytest-xdist workers for make test: the suite is mostly one-threaded Python; PoCL's kernels use every core anyway
+TEST_WORKERS ?= 2
 export UGPCL_DEVICE
 
 BIN := $(VENV)/bin
@@ -38,8 +40,8 @@ venv: $(STAMP) ## create .venv/ and install ugpcl (editable) with its test tools
 run: $(STAMP) ## headless main job: 4096 boids, 600 steps -> out/boids.npz + out/boids.png
 	$(BIN)/ugpcl run boids --steps 600 --seed 0 --set max_object_num=4096 --out out/boids.npz --png out/boids.png
 
-test: $(STAMP) ## the test suite on PoCL (CPU)
-	$(BIN)/pytest -m "not oclgrind" -q --durations=15
+test: $(STAMP) ## the test suite on PoCL (CPU), on TEST_WORKERS processes (about 2.5 minutes on 2 cores)
+	$(BIN)/pytest -m "not oclgrind" -q -n $(TEST_WORKERS) --durations=15
 
 test-oclgrind: $(STAMP) ## every kernel on the Oclgrind simulator: data races, out-of-bounds access
 	OCLGRIND_DATA_RACES=1 $(BIN)/pytest -m oclgrind -q

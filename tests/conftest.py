@@ -9,6 +9,9 @@ import sys
 
 # Oclgrind reads its options when its ICD loads, i.e. at the first platform enumeration: set them before that.
 os.environ.setdefault("OCLGRIND_DATA_RACES", "1")
+# Tables wrap to the terminal: every test (and every command it starts) sees the same width, whether pytest runs
+# in a terminal, in CI or in an xdist worker. Tests of the wrapping set their own.
+os.environ["COLUMNS"] = "160"
 
 import pytest  # noqa: E402
 
