@@ -37,17 +37,10 @@ from .registry import scenes
 from .run import Diverged, open_simulation, report, restore_checkpoint, run_steps, write_pictures
 from .runtime import BuildError, DeviceError, Runtime, all_devices
 from .scene import check_dt
+from .stopping import StopWatch, Terminated
 from .table import format_table
 
 USAGE_ERROR, RUNTIME_ERROR, INTERRUPTED, TERMINATED = 2, 1, 130, 143
-
-
-class Terminated(Exception):
-    """SIGTERM arrived: ends the run like Ctrl-C does, with exit 143 (128 + SIGTERM)."""
-
-
-def _on_sigterm(signum, frame):
-    raise Terminated
 
 
 # {{{ commands
@@ -393,37 +386,40 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def stopped_line(signum: int) -> str:
+    """The last line of a run ended by Ctrl-C or SIGTERM."""
+    how = "interrupted" if signum == signal.SIGINT else "terminated (SIGTERM)"
+    return f"ugpcl: {how}; nothing was written"
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    # SIGTERM ends a run as Ctrl-C does (old outputs untouched); the caller's handler is restored afterwards
-    previous = (
-        signal.signal(signal.SIGTERM, _on_sigterm) if threading.current_thread() is threading.main_thread() else None
-    )
-    try:
-        code = args.func(args)
-        sys.stdout.flush()  # a closed pipe shows here, inside the try, rather than at exit
-        return code
-    except UsageError as err:
-        print(f"ugpcl: error: {err}", file=sys.stderr)
-        return USAGE_ERROR
-    except (DeviceError, BuildError) as err:
-        print(f"ugpcl: {err}", file=sys.stderr)
-        return RUNTIME_ERROR
-    except (ValueError, ArithmeticError, RuntimeError, cl.Error, OSError, MemoryError) as err:
-        if isinstance(err, BrokenPipeError):
-            return quiet_broken_pipe()
-        print(report("ugpcl", err), file=sys.stderr)
-        return RUNTIME_ERROR
-    except KeyboardInterrupt:
-        print("ugpcl: interrupted; nothing was written", file=sys.stderr)
-        return INTERRUPTED
-    except Terminated:
-        print("ugpcl: terminated (SIGTERM); nothing was written", file=sys.stderr)
-        return TERMINATED
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+    # Ctrl-C and SIGTERM end a run within stopping.GRACE seconds, old outputs untouched (only from the main thread,
+    # where signals arrive; the caller's handlers are put back afterwards)
+    in_main = threading.current_thread() is threading.main_thread()
+    with StopWatch(stopped_line) if in_main else nullcontext() as watch:
+        try:
+            code = args.func(args)
+            sys.stdout.flush()  # a closed pipe shows here, inside the try, rather than at exit
+            return code
+        except UsageError as err:
+            print(f"ugpcl: error: {err}", file=sys.stderr)
+            return USAGE_ERROR
+        except (DeviceError, BuildError) as err:
+            print(f"ugpcl: {err}", file=sys.stderr)
+            return RUNTIME_ERROR
+        except (ValueError, ArithmeticError, RuntimeError, cl.Error, OSError, MemoryError) as err:
+            if isinstance(err, BrokenPipeError):
+                return quiet_broken_pipe()
+            print(report("ugpcl", err), file=sys.stderr)
+            return RUNTIME_ERROR
+        except (KeyboardInterrupt, Terminated) as err:
+            signum = signal.SIGINT if isinstance(err, KeyboardInterrupt) else signal.SIGTERM
+            print(stopped_line(signum), file=sys.stderr, flush=True)
+            if watch:
+                watch.reported()
+            return INTERRUPTED if signum == signal.SIGINT else TERMINATED
 
 
 if __name__ == "__main__":
