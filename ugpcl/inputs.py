@@ -136,9 +136,10 @@ def image_shape(name: str, path, max_side: int, max_bytes: int) -> tuple[int, in
     side 1 .. ``max_side``. A .npy must hold a float or integer (H, W, 3|4) array whose data the file holds whole."""
     file = check_file(name, path, max_bytes)
     where = f"{name} {shown(path)}"
+    needed = 0
     with open(file, "rb") as f:
         if file.suffix.lower() == ".npy":
-            height, width = _npy_header(f, where, file.stat().st_size)[:2]
+            (height, width, _), needed = _npy_header(f, where)
         else:
             head = f.read(24)
             if len(head) < 24 or head[:8] != PNG_SIGNATURE or head[12:16] != b"IHDR":
@@ -146,11 +147,13 @@ def image_shape(name: str, path, max_side: int, max_bytes: int) -> tuple[int, in
             width, height = struct.unpack(">II", head[16:24])
     if not (1 <= width <= max_side and 1 <= height <= max_side):
         raise InputError(f"{where}: a {width}x{height} image; each side must be 1 to {max_side} pixels")
+    if file.stat().st_size < needed:
+        raise InputError(f"{where}: truncated ({file.stat().st_size} bytes, its header needs {needed})")
     return height, width
 
 
-def _npy_header(f, where: str, file_size: int) -> tuple:
-    """The shape of a .npy after checking its header: dtype, (H, W, 3|4), data length."""
+def _npy_header(f, where: str) -> tuple[tuple, int]:
+    """(shape, bytes the file needs) of a .npy after checking its header's dtype and (H, W, 3|4) shape."""
     try:
         version = np.lib.format.read_magic(f)
         if version == (1, 0):
@@ -165,10 +168,7 @@ def _npy_header(f, where: str, file_size: int) -> tuple:
         raise InputError(f"{where}: holds {dtype} values; an image holds floats or integers")
     if len(shape) != 3 or shape[2] not in (3, 4):
         raise InputError(f"{where}: an array of shape {shape}; an image is (height, width, 3 or 4)")
-    needed = f.tell() + math.prod(shape) * dtype.itemsize
-    if file_size < needed:
-        raise InputError(f"{where}: truncated ({file_size} bytes, its header needs {needed})")
-    return shape
+    return shape, f.tell() + math.prod(shape) * dtype.itemsize
 
 
 def read_image(name: str, path, max_side: int, max_bytes: int) -> np.ndarray:
