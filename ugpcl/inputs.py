@@ -15,6 +15,7 @@ import math
 import os
 import struct
 from pathlib import Path
+from tokenize import TokenError
 
 import numpy as np
 
@@ -162,8 +163,9 @@ def _npy_header(f, where: str) -> tuple[tuple, int]:
             shape, _, dtype = np.lib.format.read_array_header_2_0(f)
         else:
             raise ValueError(f"unsupported .npy version {version[0]}.{version[1]}")
-    except ValueError as err:
-        raise InputError(f"{where}: not a .npy array ({str(err).splitlines()[0]})") from None
+    except (ValueError, SyntaxError, TokenError) as err:  # a damaged header fails to parse as a literal
+        reason = str(err).splitlines()[0] if str(err) else type(err).__name__
+        raise InputError(f"{where}: not a .npy array ({reason})") from None
     if dtype.kind not in NUMBER_KINDS or dtype.fields is not None:
         raise InputError(f"{where}: holds {dtype} values; an image holds floats or integers")
     if len(shape) != 3 or shape[2] not in (3, 4):

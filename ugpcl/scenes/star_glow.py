@@ -146,7 +146,9 @@ class Params(BaseParams):
         if self.input != "demo":
             height, width = load_image(self.input).shape[:2]  # read and checked here, cached for the reset
             if width // self.divide < 1 or height // self.divide < 1:
-                raise ValueError(f"divide={self.divide} leaves no glow image of the {width}x{height} input")
+                raise ValueError(
+                    f"input {self.input}: a {width}x{height} image leaves no glow image at divide={self.divide}"
+                )
 
     @property
     def mode(self) -> int:
