@@ -712,3 +712,13 @@ def test_batch_kernel_on_oclgrind(oclgrind, seed):
     offsets = np.concatenate([[0], np.cumsum([len(p) for p in polygons])])
     expected = np.concatenate([clip_on_host(p) + offsets[i] for i, p in enumerate(polygons)])
     np.testing.assert_array_equal(triangles, expected)
+
+
+def test_the_declared_file_limits_are_the_ones_checked():
+    """``ugpcl params`` shows the limits of input: the numbers its help gives are the reader's constants."""
+    from ugpcl.geometry import ear_clipping_input as eci
+    from ugpcl.scene import field_docs
+
+    doc = field_docs(Params)["input"]
+    assert f"At most {eci.MAX_FILE_BYTES >> 20} MiB and {eci.MAX_VERTICES} points" in doc, doc
+    assert f"<= {eci.COORD_LIMIT:g}" in doc, doc

@@ -42,8 +42,8 @@ class Params(BaseParams):
     preset: str = param("nested", choices=tuple(PRESETS))
     """The rings to triangulate (nested: the book's TriangulationTest scene; draw: start empty, as DrawTest)."""
     input: str = ""
-    """Path of a JSON file {"rings": [[[x, y], ...], ...]}; when set it replaces the preset. At most 4 MiB and
-    8192 points in all, |x|, |y| <= 1e9; each ring 3 or more distinct points with an area, no edges that meet."""
+    """Path of a JSON file {"rings": [[[x, y], ...], ...]}; when set it replaces the preset. At most 1 MiB and
+    4096 points in all, |x|, |y| <= 1e9; each ring 3 or more distinct points with an area, no edges that meet."""
     text: str = "ugpcl"
     """Text of the glyph preset (1 to 64 characters)."""
     text_size: float = param(4.0, 0.0, 1000.0, lo_open=True)
