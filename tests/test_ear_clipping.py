@@ -4,6 +4,8 @@ chapter's worked ear list, random stars with holes, mapbox-earcut, Delaunay flip
 from __future__ import annotations
 
 import json
+import math
+import re
 
 import numpy as np
 import pytest
@@ -11,7 +13,7 @@ from helpers import foreground, render_view, run_cli
 
 from ugpcl.geometry import ear_clipping as ec
 from ugpcl.geometry.ear_clipping import clip_on_host, merged_polygons
-from ugpcl.geometry.ear_clipping_input import PRESETS, glyph_batch, star
+from ugpcl.geometry.ear_clipping_input import PRESETS, glyph_batch, glyph_rings, star
 from ugpcl.scenes.ear_clipping import MAX_BATCH_VERTICES, Params, Simulation, ear_clip_batch
 
 # {{{ plain numpy references (never our geometry module)
@@ -547,6 +549,79 @@ def test_params_are_checked():
         Params(preset="hexagon")
 
 
+BAD_RINGS = [
+    ('{"foo":1}', 'expected {"rings": [[[x, y], ...], ...]}, got keys "foo"'),
+    ("5", 'expected {"rings": [[[x, y], ...], ...]}, got the number 5'),
+    ("null", 'expected {"rings": [[[x, y], ...], ...]}, got null'),
+    ('{"rings":5}', "rings must be a list of rings, each a list of [x, y] points; got the number 5"),
+    ('{"rings":[]}', "holds no rings"),
+    ('{"rings": [[[0, 0],\n  [1, 0] [1, 1]]]}', "invalid JSON at line 2, column 10: Expecting ',' delimiter"),
+    ('{"rings":[[[0,0],[1,0],[NaN,1]]]}', "invalid JSON number (NaN is not a finite number)"),
+    ('{"rings":[[[0,0],[1,0],[1e400,1]]]}', "invalid JSON number (1e400 is beyond float64)"),
+    ('{"rings":[[[0,0],[1e39,0],[1e39,1e39]]]}', "rings[0][1] has 1e+39; coordinates must be within +-1e9"),
+    ('{"rings":[[[0,0,0],[1,0,0],[1,1,0]]]}', "rings[0][0] must be [x, y] (rings are 2-D), got 3 numbers"),
+    ('{"rings":[[[0,0],["a",0],[1,1]]]}', "rings[0][1] must be two numbers, got a string"),
+    ('{"rings":[[[0,0],[0,0],[1,1],[0,0]]]}', "rings[0] has 2 distinct points; a ring needs 3"),
+    ('{"rings":[[[0,0],[1,1],[2,2]]]}', "rings[0] has zero area: its points lie on one line"),
+    (
+        '{"rings":[[[0,0],[2,2],[2,0],[0,2]]]}',
+        "rings[0] intersects itself (edge 0 of rings[0] meets edge 2 of rings[0])",
+    ),
+    (
+        '{"rings":[[[0,0],[0,4],[4,4],[4,0]],[[1,1],[5,2],[2,3]]]}',
+        "rings[0] and rings[1] intersect (edge 2 of rings[0] meets edge 0 of rings[1])",
+    ),
+    (
+        '{"rings":[[[0,0],[0,4],[4,4],[4,0]],[[0,0],[1,2],[2,1]]]}',  # a hole touching its outer ring at a corner
+        "rings[0] and rings[1] intersect (edge 0 of rings[0] meets edge 0 of rings[1])",
+    ),
+    (json.dumps({"rings": [[[i, i % 2] for i in range(4097)]]}), "4097 points is more than the limit of 4096"),
+    ("", "is empty"),
+    (" " * (1 << 20) + "{}", "1048578 bytes is more than the limit of 1 MiB"),
+]
+
+
+@pytest.mark.parametrize("text, message", BAD_RINGS)
+def test_bad_rings_files_are_refused_in_one_line(tmp_path, text, message):
+    path = tmp_path / "rings.json"
+    path.write_text(text)
+    with pytest.raises(ValueError) as err:
+        Params(input=str(path))
+    assert str(err.value) == f"input {path}: {message}"
+
+
+def test_rings_files_that_are_not_files(tmp_path):
+    with pytest.raises(ValueError, match=f"^input {tmp_path}: is a folder, not a file$"):
+        Params(input=str(tmp_path))
+    with pytest.raises(ValueError, match=f"^input {tmp_path}/none.json: no such file$"):
+        Params(input=str(tmp_path / "none.json"))
+
+
+def test_every_preset_passes_the_file_checks(tmp_path):
+    """What the checks refuse is what the triangulation cannot take: the book's scenes and the glyphs pass."""
+    from ugpcl.geometry.ear_clipping_input import load_rings, save_rings
+
+    for name, make_rings in {**PRESETS, "glyph": lambda: glyph_rings("ugpcl@%", 4.0)}.items():
+        if name == "draw":
+            continue
+        save_rings(tmp_path / f"{name}.json", make_rings())
+        assert len(load_rings(tmp_path / f"{name}.json")) == len(make_rings()), name
+
+
+def test_glyph_text_without_outlines_is_refused():
+    for text in (" ", "\u200b"):
+        with pytest.raises(ValueError, match=f"^text {re.escape(repr(text))} has no glyph outlines to triangulate"):
+            Params(preset="glyph", text=text)
+
+
+def test_a_rings_file_edited_after_its_check_is_read_again(runtime, tmp_path):
+    path = tmp_path / "rings.json"
+    path.write_text(json.dumps({"rings": [PRESETS["square"]()[0]]}))
+    params = Params(input=str(path))
+    path.write_text(json.dumps({"rings": PRESETS["holes"]()}) + " ")  # another size: another version
+    assert len(Simulation(runtime, params).rings) == 4
+
+
 def test_input_json_and_drawn_rings(runtime, tmp_path):
     path = tmp_path / "rings.json"
     path.write_text(json.dumps({"rings": [PRESETS["holes"]()[0], PRESETS["holes"]()[1]]}))
@@ -638,3 +713,13 @@ def test_batch_kernel_on_oclgrind(oclgrind, seed):
     offsets = np.concatenate([[0], np.cumsum([len(p) for p in polygons])])
     expected = np.concatenate([clip_on_host(p) + offsets[i] for i, p in enumerate(polygons)])
     np.testing.assert_array_equal(triangles, expected)
+
+
+def test_the_declared_file_limits_are_the_ones_checked():
+    """``ugpcl params`` shows the limits of input: the numbers its help gives are the reader's constants."""
+    from ugpcl.geometry import ear_clipping_input as eci
+    from ugpcl.scene import field_docs
+
+    doc = field_docs(Params)["input"]
+    assert f"At most {eci.MAX_FILE_BYTES >> 20} MiB and {eci.MAX_VERTICES} points" in doc, doc
+    assert f"<= 1e{round(math.log10(eci.COORD_LIMIT))}" in doc, doc

@@ -259,6 +259,14 @@ LIMITS = {
         {"L": 95, "oversample": 4, "density": "grid"},
     ),
     "batches*limit <= 16777216": ({"batches": 16778, "limit": 1000}, {"batches": 16777, "limit": 1000}),
+    "prod(ceil(size*sqrt(dim)/r) + 1) <= 67108864": (  # dim 4: axes x, y, z, x of 2 * size / r + 1 cells
+        {"dim": 4, "r": 2.0, "size": (127.0, 63.0, 64.0)},
+        {"dim": 4, "r": 2.0, "size": (127.0, 63.0, 63.0)},
+    ),
+    "r <= size*sqrt(dim) with method=gpu": (
+        {"method": "gpu", "r": 2.9, "size": (2.0, 2.0, 1.0)},
+        {"method": "gpu", "r": 2 * math.sqrt(2), "size": (2.0, 2.0, 1.0)},
+    ),
 }
 """For each rule of every ``Params.limits``: a set that breaks it by one, and the set on its edge, which passes."""
 

@@ -15,7 +15,6 @@ from scipy.spatial import cKDTree
 from ugpcl.geometry import poisson_disk as pd
 from ugpcl.random import key_of_seed, philox4x32, uniform01
 from ugpcl.registry import get
-from ugpcl.scene import ParamError
 from ugpcl.scenes.poisson_disk import R2_MARGIN, Params, Simulation
 
 UNIT = {"lo": (0.0, 0.0, 0.0), "size": (1.0, 1.0, 1.0)}
@@ -245,9 +244,30 @@ def test_bridson_count_near_scipy(runtime):
 def test_parameters_that_cannot_run_are_refused(runtime):
     with pytest.raises(ValueError, match="method=gpu needs dim 2 or 3, got dim=4"):
         Params(dim=4, method="gpu")
-    with pytest.raises(ParamError, match="needs a grid of .* cells"):
-        make(runtime, dim=3, r=0.0005)
-    # ranges: tests/test_params.py checks them for every field of every scene
+    with pytest.raises(ValueError) as err:  # the grid limit names its fields with plain numbers
+        Params(dim=3, r=0.0005)
+    assert str(err.value) == (
+        "prod(ceil(size*sqrt(dim)/r) + 1) must be <= 67108864, got dim=3, size=(1, 1, 1), r=0.0005 (41637598696 cells)"
+    )
+    # ranges: tests/test_params.py checks them for every field of every scene and its limit up to the edge
+
+
+@pytest.mark.parametrize("scene", ["poisson_disk", "poisson_disk_3d", "poisson_disk_gpu"])
+def test_the_corners_of_the_declared_ranges_run(runtime, scene):
+    """The smallest box far from the origin with the smallest and (gpu: the largest its limit allows) largest r,
+    and the smallest r in a small box: finite samples at least r apart inside the box (size=1e-45 and r=5e-324 once
+    passed the ranges and failed inside the sampler; a gpu box smaller than a cell caught no dart)."""
+    for overrides in (
+        {"lo": (1e6, -1e6, 1e6), "size": (1e-6,) * 3, "r": 1e-6},
+        {"lo": (-1e6,) * 3, "size": (1e-6,) * 3, "r": 1e-6 if scene == "poisson_disk_gpu" else 1e6},
+        {"lo": (0.0,) * 3, "size": (1e-5,) * 3, "r": 1e-6},
+    ):
+        sim = get(scene).create(runtime, seed=1, **overrides)
+        sim.step()
+        points, lo, hi = sim.points(), sim.lo, sim.hi
+        assert len(points) >= 1 and np.isfinite(points).all(), overrides
+        assert ((points >= lo) & (points <= hi)).all(), overrides
+        assert pd.min_distance(points) > overrides["r"], overrides
 
 
 # }}}

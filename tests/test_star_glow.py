@@ -343,6 +343,71 @@ def test_bad_parameters_name_themselves(values, words):
         Params(**values)
 
 
+def _npy(shape, dtype, body_bytes=None) -> bytes:
+    """A .npy header for ``shape`` and ``dtype`` and ``body_bytes`` zero bytes (default: the whole array)."""
+    import io
+
+    dtype = np.dtype(dtype)
+    f = io.BytesIO()
+    header = {"descr": np.lib.format.dtype_to_descr(dtype), "fortran_order": False, "shape": shape}
+    np.lib.format.write_array_header_1_0(f, header)
+    return f.getvalue() + bytes(int(np.prod(shape)) * dtype.itemsize if body_bytes is None else body_bytes)
+
+
+def _png_header(width, height) -> bytes:
+    import struct
+    import zlib
+
+    ihdr = b"IHDR" + struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + struct.pack(">I", 13) + ihdr + struct.pack(">I", zlib.crc32(ihdr))
+
+
+BAD_IMAGES = [
+    ("empty.npy", b"", "is empty"),
+    (
+        "struct.npy",
+        _npy((4, 4, 3), [("a", "<f4"), ("b", "<i4")]),
+        "holds [('a', '<f4'), ('b', '<i4')] values; an image",
+    ),
+    ("complex.npy", _npy((4, 4, 3), np.complex64), "holds complex64 values; an image holds floats or integers"),
+    ("object.npy", _npy((4, 4, 3), object), "holds object values; an image holds floats or integers"),
+    ("flat.npy", _npy((4, 4), np.float32), "an array of shape (4, 4); an image is (height, width, 3 or 4)"),
+    ("five.npy", _npy((4, 4, 5), np.float32), "an array of shape (4, 4, 5); an image is (height, width, 3 or 4)"),
+    ("none.npy", _npy((0, 4, 3), np.float32), "a 4x0 image; each side must be 1 to 8192 pixels"),
+    ("huge.npy", _npy((100000, 100000, 3), np.float32, 64), "a 100000x100000 image; each side must be 1 to 8192"),
+    ("short.npy", _npy((8, 8, 3), np.float32, 700), "truncated (828 bytes, its header needs 896)"),
+    (
+        "junk.npy",
+        b"not numpy",
+        "not a .npy array (the magic string is not correct; expected b'\\x93NUMPY', got b'not nu')",
+    ),
+    ("junk.png", b"hello, not a png", "not a PNG file (no PNG signature and IHDR header)"),
+    ("bomb.png", _png_header(14000, 14000) + bytes(100), "a 14000x14000 image; each side must be 1 to 8192 pixels"),
+    ("cut.png", _png_header(8000, 8000) + bytes(100), "cannot decode the PNG ("),
+]
+
+
+@pytest.mark.parametrize("name, data, message", BAD_IMAGES)
+def test_bad_image_files_are_refused_in_one_line_before_decoding(tmp_path, name, data, message):
+    path = tmp_path / name
+    path.write_bytes(data)
+    with pytest.raises(ValueError) as err:
+        Params(input=str(path))
+    assert str(err.value).startswith(f"input {path}: {message}"), str(err.value)
+
+
+def test_non_finite_images_and_a_folder_are_refused(tmp_path):
+    np.save(tmp_path / "nan.npy", np.full((4, 4, 3), np.nan, np.float32))
+    with pytest.raises(ValueError, match="nan.npy: holds NaN or inf$"):
+        Params(input=str(tmp_path / "nan.npy"))
+    (tmp_path / "d.png").mkdir()
+    with pytest.raises(ValueError, match="d.png: is a folder, not a file$"):
+        Params(input=str(tmp_path / "d.png"))
+    np.save(tmp_path / "small.npy", np.ones((2, 2, 3), np.float32))
+    with pytest.raises(ValueError, match="small.npy: a 2x2 image leaves no glow image at divide=3$"):
+        Params(input=str(tmp_path / "small.npy"))
+
+
 def test_png_input_is_read_top_row_first_and_scaled(runtime, tmp_path):
     from PIL import Image
 

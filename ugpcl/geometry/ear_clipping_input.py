@@ -11,7 +11,17 @@ from pathlib import Path
 
 import numpy as np
 
+from ..inputs import InputError, file_cached, read_json, shown
 from .ear_clipping import merged_polygons
+
+MAX_FILE_BYTES = 1 << 20
+"""Largest rings file (``input=``): 1 MiB, room for MAX_VERTICES points however the JSON is laid out."""
+MAX_VERTICES = 4096
+"""Most points of a rings file, all rings together: ear clipping is O(n^2) (0.15 s at 4096) and so, at worst, is
+the check that no two edges meet (n^2 / 2 pairs, 0.8 s)."""
+COORD_LIMIT = 1e9
+"""Largest |x| or |y| of a rings file: areas and cross products (2e9 squared) stay far inside float64, vertices
+inside float32 (meshes, the view)."""
 
 
 def star(points: int, outer: float, inner: float) -> np.ndarray:
@@ -65,9 +75,11 @@ the test shapes, text outlines (glyph) and nothing (draw: the DrawTest scene, ri
 def _glyph_rings(text: str, size: float) -> tuple:
     from matplotlib import get_data_path
     from matplotlib.font_manager import FontProperties
-    from matplotlib.textpath import TextPath
+    from matplotlib.textpath import TextPath, text_to_path
 
     font = FontProperties(fname=str(Path(get_data_path()) / "fonts" / "ttf" / "DejaVuSans.ttf"))
+    if not len(text_to_path.get_text_path(font, text)[0]):
+        return ()  # spaces, or characters the font draws as nothing: TextPath fails on them
     path = TextPath((0.0, 0.0), text, size=size, prop=font)
     return tuple(clean_ring(p) for p in path.to_polygons(closed_only=True))
 
@@ -85,11 +97,126 @@ def clean_ring(points) -> np.ndarray:
     return ring[keep] if keep.any() else ring[:1]
 
 
-def load_rings(path: str) -> list[np.ndarray]:
-    """``{"rings": [[[x, y], ...], ...]}`` (a bare list of rings is accepted too)."""
-    data = json.loads(Path(path).read_text())
-    rings = data["rings"] if isinstance(data, dict) else data
-    return [clean_ring(r) for r in rings]
+@file_cached(maxsize=8)
+def load_rings(path, name: str = "input") -> tuple[np.ndarray, ...]:
+    """The rings of a JSON file ``{"rings": [[[x, y], ...], ...]}``, each cleaned (``clean_ring``), checked before
+    they are used: at most ``MAX_FILE_BYTES`` and ``MAX_VERTICES`` in all, coordinates finite and within
+    ``COORD_LIMIT``, each ring with 3 distinct points not on one line, no ring crossing or touching itself or
+    another (a bowtie, a hole that touches its outer ring).
+    ``InputError`` (naming ``name``, the file and the ring) otherwise. Cached by file version: read-only arrays."""
+    where = f"{name} {shown(path)}"
+    data = read_json(name, path, MAX_FILE_BYTES)
+    if not isinstance(data, dict) or set(data) != {"rings"}:
+        got = f"keys {', '.join(map(json.dumps, data))}" if isinstance(data, dict) else _kind(data)
+        raise InputError(f'{where}: expected {{"rings": [[[x, y], ...], ...]}}, got {got}')
+    rings = data["rings"]
+    if not isinstance(rings, list) or not all(isinstance(r, list) for r in rings):
+        bad = rings if not isinstance(rings, list) else next(r for r in rings if not isinstance(r, list))
+        raise InputError(f"{where}: rings must be a list of rings, each a list of [x, y] points; got {_kind(bad)}")
+    if not rings:
+        raise InputError(f"{where}: holds no rings")
+    total = sum(len(r) for r in rings)
+    if total > MAX_VERTICES:
+        raise InputError(f"{where}: {total} points is more than the limit of {MAX_VERTICES}")
+    cleaned = [clean_ring(_points(where, i, ring)) for i, ring in enumerate(rings)]
+    for i, ring in enumerate(cleaned):
+        distinct = len(np.unique(ring, axis=0))
+        if distinct < 3:
+            raise InputError(f"{where}: rings[{i}] has {distinct} distinct points; a ring needs 3")
+        spread = np.linalg.svd(ring - ring.mean(axis=0), compute_uv=False)  # its extent along and across
+        if spread[1] <= len(ring) * np.finfo(np.float64).eps * spread[0]:
+            raise InputError(f"{where}: rings[{i}] has zero area: its points lie on one line")
+    found = intersection(cleaned)
+    if found is not None:
+        (a, ea), (b, eb) = found
+        what = f"rings[{a}] intersects itself" if a == b else f"rings[{a}] and rings[{b}] intersect"
+        raise InputError(f"{where}: {what} (edge {ea} of rings[{a}] meets edge {eb} of rings[{b}])")
+    for ring in cleaned:
+        ring.flags.writeable = False
+    return tuple(cleaned)
+
+
+def _kind(value) -> str:
+    """A JSON value as a message names it: an object, a list, a string, a number, null, true."""
+    kinds = {dict: "an object", list: "a list", str: "a string", bool: "a boolean", type(None): "null"}
+    return kinds.get(type(value), f"the number {value!r}")
+
+
+def _points(where: str, index: int, ring: list) -> np.ndarray:
+    """Ring ``index`` of the file as (n, 2) float64: every point a pair of numbers within COORD_LIMIT."""
+    for j, point in enumerate(ring):
+        if not (isinstance(point, list) and len(point) == 2):
+            shape = f"{len(point)} numbers" if isinstance(point, list) else _kind(point)
+            raise InputError(f"{where}: rings[{index}][{j}] must be [x, y] (rings are 2-D), got {shape}")
+        for v in point:
+            if isinstance(v, bool) or not isinstance(v, int | float):
+                raise InputError(f"{where}: rings[{index}][{j}] must be two numbers, got {_kind(v)}")
+            if not abs(v) <= COORD_LIMIT:
+                shown_v = f"{float(v):g}" if abs(v) < 1e308 else "a number beyond float64"
+                raise InputError(f"{where}: rings[{index}][{j}] has {shown_v}; coordinates must be within +-1e9")
+    return np.asarray(ring, np.float64).reshape(-1, 2)
+
+
+def intersection(rings: list[np.ndarray], chunk: int = 1 << 18) -> tuple | None:
+    """The first pair of edges that share a point, as ((ring, edge), (ring, edge)), else None. Edges i and i + 1 of
+    one ring share their vertex: they count only when they fold back over each other. The pairs tested are those
+    whose ranges overlap along the axis where fewer do (a sweep), ``chunk`` at a time: at most n^2 / 2 pairs."""
+    start = np.concatenate(rings)
+    end = np.concatenate([np.roll(r, -1, axis=0) for r in rings])
+    before = np.concatenate([np.roll(r, 1, axis=0) for r in rings])
+    ring_of = np.repeat(np.arange(len(rings)), [len(r) for r in rings])
+    edge_of = np.concatenate([np.arange(len(r)) for r in rings])
+    size_of = np.repeat([len(r) for r in rings], [len(r) for r in rings])
+    folds = (_orient(before, start, end) == 0) & (((start - before) * (end - start)).sum(axis=1) < 0)
+    if folds.any():  # a -> v -> b straight back along one line
+        k = int(np.argmax(folds))
+        return (int(ring_of[k]), int((edge_of[k] - 1) % size_of[k])), (int(ring_of[k]), int(edge_of[k]))
+    lo, hi = np.minimum(start, end), np.maximum(start, end)
+    sweeps = []
+    for axis in (0, 1):
+        order = np.argsort(lo[:, axis], kind="stable")
+        stop = np.searchsorted(lo[order, axis], hi[order, axis], side="right")
+        counts = np.maximum(stop - np.arange(len(order)) - 1, 0)  # edges after the i-th that may meet it
+        sweeps.append((int(counts.sum()), order, counts))
+    _, order, counts = min(sweeps, key=lambda s: s[0])
+    start, end, lo, hi, ring_of, edge_of, size_of = (a[order] for a in (start, end, lo, hi, ring_of, edge_of, size_of))
+    ends = np.cumsum(counts)
+    first = 0
+    while first < len(order):
+        last = int(np.searchsorted(ends, ends[first] - counts[first] + chunk, side="right"))
+        last = min(max(last, first + 1), len(order))  # edges first .. last - 1: about ``chunk`` pairs
+        runs = counts[first:last]
+        i = np.repeat(np.arange(first, last), runs)
+        j = i + 1 + np.arange(len(i)) - np.repeat(np.cumsum(runs) - runs, runs)
+        keep = (lo[j] <= hi[i]).all(axis=1) & (lo[i] <= hi[j]).all(axis=1)
+        i, j = i[keep], j[keep]
+        step = (edge_of[i] - edge_of[j]) % size_of[i]
+        apart = (ring_of[i] != ring_of[j]) | ((step != 1) & (step != size_of[i] - 1))
+        i, j = i[apart], j[apart]
+        meet = _segments_meet(start[i], end[i], start[j], end[j])
+        if meet.any():
+            k = int(np.argmax(meet))
+            pair = sorted([(int(ring_of[i[k]]), int(edge_of[i[k]])), (int(ring_of[j[k]]), int(edge_of[j[k]]))])
+            return pair[0], pair[1]
+        first = last
+    return None
+
+
+def _orient(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Sign of the turn a -> b -> c: 1 counter-clockwise, -1 clockwise, 0 on one line."""
+    return np.sign((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+
+
+def _segments_meet(p1, p2, q1, q2) -> np.ndarray:
+    """Whether closed segments p1p2 and q1q2 share a point (crossing, touching or overlapping): their boxes
+    overlap already, so a point on the other's line touches it when it lies within that segment's box."""
+    d1, d2 = _orient(q1, q2, p1), _orient(q1, q2, p2)
+    d3, d4 = _orient(p1, p2, q1), _orient(p1, p2, q2)
+    meet = (d1 * d2 < 0) & (d3 * d4 < 0)
+    for d, a, b, c in ((d1, q1, q2, p1), (d2, q1, q2, p2), (d3, p1, p2, q1), (d4, p1, p2, q2)):
+        on = np.flatnonzero(d == 0)  # rare: only these need the box test
+        meet[on] |= ((np.minimum(a[on], b[on]) <= c[on]) & (c[on] <= np.maximum(a[on], b[on]))).all(axis=1)
+    return meet
 
 
 def save_rings(path, rings) -> None:

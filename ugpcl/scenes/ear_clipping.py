@@ -17,7 +17,6 @@ bundled DejaVu Sans (the chapter names font outlines as the use).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -25,7 +24,8 @@ from ..geometry import ear_clipping as ec
 from ..geometry.ear_clipping_input import PRESETS, clean_ring, glyph_rings, load_rings
 from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
-from ..scene import Animation, Scene, param
+from ..inputs import InputError
+from ..scene import Animation, ParamError, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
 
@@ -42,7 +42,8 @@ class Params(BaseParams):
     preset: str = param("nested", choices=tuple(PRESETS))
     """The rings to triangulate (nested: the book's TriangulationTest scene; draw: start empty, as DrawTest)."""
     input: str = ""
-    """Path of a JSON file {"rings": [[[x, y], ...], ...]}; when set it replaces the preset."""
+    """Path of a JSON file {"rings": [[[x, y], ...], ...]}; when set it replaces the preset. At most 1 MiB and
+    4096 points in all, |x|, |y| <= 1e9; each ring 3 or more distinct points with an area, no edges that meet."""
     text: str = "ugpcl"
     """Text of the glyph preset (1 to 64 characters)."""
     text_size: float = param(4.0, 0.0, 1000.0, lo_open=True)
@@ -59,8 +60,10 @@ class Params(BaseParams):
     def check(self) -> None:
         if not 1 <= len(self.text) <= MAX_TEXT:
             raise ValueError(f"text must have 1 to {MAX_TEXT} characters, got {len(self.text)}")
-        if self.input and not Path(self.input).is_file():
-            raise ValueError(f"input must be a JSON file of rings, got {self.input!r} (no such file)")
+        if self.input:
+            load_rings(self.input)  # read and checked with the parameters (cached for the reset): one line
+        elif self.preset == "glyph" and not glyph_rings(self.text, self.text_size):
+            raise ValueError(f"text {self.text!r} has no glyph outlines to triangulate (preset=glyph)")
 
 
 class Simulation(BaseSimulation):
@@ -71,7 +74,10 @@ class Simulation(BaseSimulation):
     def _reset(self) -> None:
         p = self.params
         if p.input:
-            self.rings = load_rings(p.input)
+            try:
+                self.rings = list(load_rings(p.input))
+            except InputError as err:  # edited since check() read it
+                raise ParamError(str(err)) from None
         elif p.preset == "glyph":
             self.rings = glyph_rings(p.text, p.text_size)
         else:

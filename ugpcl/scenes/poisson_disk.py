@@ -24,7 +24,7 @@ import pyopencl.cltypes as cltypes
 
 from ..geometry import poisson_disk as pd
 from ..random import key_of_seed
-from ..scene import Animation, ParamError, Scene, param
+from ..scene import Animation, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
 
@@ -38,6 +38,9 @@ R2_MARGIN = 1.0 + 2.0**-19
 squared distances (a few 2^-24 relative) never brings two samples closer than r."""
 GROUP = 64
 """Work-group size of both kernels (no local memory: any size works)."""
+MIN_LENGTH = 1e-6
+"""Smallest size and r: lo + size stays above lo for every |lo| <= 1e6 (one float64 step there is 1.2e-10), and r^2
+and the cell size stay far from float32's smallest normal numbers."""
 
 
 @dataclass(frozen=True)
@@ -46,10 +49,10 @@ class Params(BaseParams):
     """Dimension n of the domain (the sample: 2 and 3; method=gpu: 2 or 3)."""
     lo: tuple[float, float, float] = param((0.0, 0.0, 0.0), -1e6, 1e6)
     """Domain min corner (bottomLeft / bottomLeftBack); 2-D uses x, y; beyond 3-D every further axis takes x's."""
-    size: tuple[float, float, float] = param((1.0, 1.0, 1.0), 0.0, 1e6, lo_open=True)
-    """Domain extent per axis (topRight - bottomLeft), same axes as lo."""
-    r: float = param(10.0, 0.0, 1e6, lo_open=True)
-    """Smallest distance between two samples, domain units (minimumDistance)."""
+    size: tuple[float, float, float] = param((1.0, 1.0, 1.0), MIN_LENGTH, 1e6)
+    """Domain extent per axis (topRight - bottomLeft), same axes as lo (at least 1e-6: lo + size > lo in float64)."""
+    r: float = param(10.0, MIN_LENGTH, 1e6)
+    """Smallest distance between two samples, domain units (minimumDistance; at least 1e-6: r^2 stays normal)."""
     k: int = param(30, 1, 1000)
     """Candidates per active point (iterationPerPoint; the sample maps <= 0 to 30); method=gpu: rounds of darts."""
     method: str = param("bridson", choices=("bridson", "gpu"))
@@ -68,9 +71,20 @@ class Params(BaseParams):
     compare_scipy: bool = False
     """Also sample with scipy.stats.qmc.PoissonDisk (scipy_points in the .npz; fill_space, the same r and k)."""
 
+    limits = (f"prod(ceil(size*sqrt(dim)/r) + 1) <= {MAX_GRID_CELLS}", "r <= size*sqrt(dim) with method=gpu")
+    """The background grid, cells of r / sqrt(dim) over every axis of the domain (``grid_shape``), fits; the gpu
+    method throws each dart uniformly in its whole cell, so the box holds a whole cell on every axis (a box much
+    smaller than a cell would catch no dart)."""
+
     def check(self) -> None:
         if self.method == "gpu" and self.dim not in GPU_DIMS:
             raise ValueError(f"method=gpu needs dim 2 or 3, got dim={self.dim}")
+        lo, hi = self.domain
+        cells = math.prod(pd.grid_shape(hi - lo, self.r))
+        if cells > MAX_GRID_CELLS:
+            raise self.broken(self.limits[0], f"{cells} cells")
+        if self.method == "gpu" and (hi - lo).min() * math.sqrt(self.dim) < self.r:
+            raise self.broken(self.limits[1], f"a cell of {pd.cell_size(self.r, self.dim):g}")
 
     @property
     def domain(self) -> tuple[np.ndarray, np.ndarray]:
@@ -89,12 +103,6 @@ class Simulation(BaseSimulation):
     def _reset(self) -> None:
         p = self.params
         self.lo, self.hi = p.domain
-        cells = math.prod(pd.grid_shape(self.hi - self.lo, p.r))
-        if cells > MAX_GRID_CELLS:
-            raise ParamError(
-                f"r={p.r:g} over a domain of size {tuple(self.hi - self.lo)} needs a grid of {cells} cells "
-                f"(limit {MAX_GRID_CELLS}): raise r or shrink size"
-            )
         self.gaps = np.zeros((0, p.dim))
         self.filled = False
         self.active_counts: list[int] = []

@@ -28,6 +28,7 @@ import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
 from ..buffers import PingPong
+from ..inputs import InputError, file_cached, read_image
 from ..resources import Allocation
 from ..scene import Animation, ParamError, PreviewCheck, Scene, param
 from ..scene import Params as BaseParams
@@ -41,6 +42,10 @@ TAPS = 4
 LOCAL = (16, 16)
 """Work-group of every 2-D kernel (16x16)."""
 IMAGE_SUFFIXES = (".png", ".npy")
+MAX_IMAGE_SIDE = 8192
+"""Largest width or height of an image input (the demo frame's limit)."""
+MAX_IMAGE_BYTES = 2 << 30
+"""Largest image file: an 8192 x 8192 x 4 float64 .npy."""
 
 # {{{ the demo's scene (the book's Sample scene: a lit white particle shower on a black HDR camera)
 
@@ -114,7 +119,8 @@ class Params(BaseParams):
     color: tuple[float, float, float, float] = param((1.0, 1.0, 1.0, 1.0), 0.0, 1e4, live=True)
     """Tint of the colored_* composite types (book: color)."""
     input: str = "demo"
-    """Source frame: ``demo`` (lit spheres, rendered by DemoScene) or an image file (.png, .npy float HDR)."""
+    """Source frame: ``demo`` (lit spheres, rendered by DemoScene) or an image file (.png, .npy float HDR (H, W, 3|4)),
+    at most 8192 pixels a side and 2 GiB."""
     input_gain: float = param(1.0, 0.0, 1e4)
     """Scale of an image input (PNG values are <= 1: raise it, or lower threshold, to make them glow)."""
     width: int = param(640, 1, 8192)
@@ -137,6 +143,12 @@ class Params(BaseParams):
                 raise self.broken(rule, f"glow image {self.width // self.divide}x{self.height // self.divide}")
         if self.input != "demo" and Path(self.input).suffix.lower() not in IMAGE_SUFFIXES:
             raise ValueError(f"input must be demo or a {'/'.join(IMAGE_SUFFIXES)} file, got {self.input!r}")
+        if self.input != "demo":
+            height, width = load_image(self.input).shape[:2]  # read and checked here, cached for the reset
+            if width // self.divide < 1 or height // self.divide < 1:
+                raise ValueError(
+                    f"input {self.input}: a {width}x{height} image leaves no glow image at divide={self.divide}"
+                )
 
     @property
     def mode(self) -> int:
@@ -158,24 +170,13 @@ def tap_weights(attenuation: float, power: float) -> np.ndarray:
     return np.array([attenuation ** (power * j) for j in range(TAPS)], np.float32)
 
 
-def load_image(path: str, gain: float) -> np.ndarray:
-    """An image file as float32 (H, W, 4) in GL row order (row 0 = bottom), times ``gain``."""
-    file = Path(path)
-    if not file.is_file():
-        raise ParamError(f"input {path!r}: no such file")
-    if file.suffix.lower() == ".npy":
-        image = np.load(file).astype(np.float32)
-    else:
-        from PIL import Image
-
-        image = np.asarray(Image.open(file).convert("RGBA"), np.float32) / 255.0
-    if image.ndim != 3 or image.shape[2] not in (3, 4):
-        raise ParamError(f"input {path!r}: expected an (H, W, 3|4) image, got shape {image.shape}")
-    if image.shape[2] == 3:
-        image = np.concatenate([image, np.ones(image.shape[:2] + (1,), np.float32)], axis=2)
-    if not np.isfinite(image).all():
-        raise ParamError(f"input {path!r}: holds NaN or inf")
-    return np.ascontiguousarray(image[::-1] * np.float32(gain))
+@file_cached(maxsize=1)
+def load_image(path: str) -> np.ndarray:
+    """An image file as float32 (H, W, 4), top row first, after the checks of ``ugpcl.inputs.read_image``; cached
+    by file version (one image), read-only."""
+    image = read_image("input", path, MAX_IMAGE_SIDE, MAX_IMAGE_BYTES)
+    image.flags.writeable = False
+    return image
 
 
 class Simulation(BaseSimulation):
@@ -185,7 +186,9 @@ class Simulation(BaseSimulation):
 
     @classmethod
     def allocations(cls, params: Params) -> list:
-        full = params.width * params.height * 16
+        demo = params.input == "demo"
+        height, width = (params.height, params.width) if demo else load_image(params.input).shape[:2]
+        full = width * height * 16
         glow = full // (params.divide * params.divide)
         return [
             Allocation("source or output image", full, "width"),
@@ -196,11 +199,12 @@ class Simulation(BaseSimulation):
         p, rt = self.params, self.runtime
         self.program = rt.program(STEM)
         self.demo = p.input == "demo"
-        image = None if self.demo else load_image(p.input, p.input_gain)
+        try:  # in GL row order (row 0 = bottom), times the gain
+            image = None if self.demo else np.ascontiguousarray(load_image(p.input)[::-1] * np.float32(p.input_gain))
+        except InputError as err:  # edited since check() read it
+            raise ParamError(str(err)) from None
         self.W, self.H = (p.width, p.height) if self.demo else (image.shape[1], image.shape[0])
         self.w, self.h = self.W // p.divide, self.H // p.divide
-        if self.w < 1 or self.h < 1:
-            raise ParamError(f"divide={p.divide} leaves no glow image of the {self.W}x{self.H} input")
         n = p.num_of_streak
         self.src = rt.to_device(image) if image is not None else rt.zeros((self.H, self.W, 4), np.float32)
         self.dst = rt.zeros((self.H, self.W, 4), np.float32)
