@@ -172,10 +172,10 @@ def cmd_run(args) -> int:
         outputs.target(path)
     # }}}
     runtime = Runtime.shared(args.device)
-    sim = open_simulation(scene, params, seed, runtime, announce=True)
-    if resume is not None:
+    sim = open_simulation(scene, params, seed, runtime, announce=resume is None)
+    if resume is not None:  # announced once restored: a checkpoint refused then is still one line
         restore_checkpoint(sim, resume)
-        print(f"ugpcl: resumed {args.resume} at step {sim.steps}", file=sys.stderr)
+        print(f"ugpcl: {scene.name} on {runtime.label}, resumed {args.resume} at step {sim.steps}", file=sys.stderr)
 
     def save_checkpoint(state: dict) -> None:
         write_npz(checkpoint, record(sim, state, dt))

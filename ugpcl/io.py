@@ -246,6 +246,8 @@ def load_checkpoint(text: str, scene: str | None = None) -> Checkpoint:
     def bad(what: str) -> UsageError:
         return UsageError(f"--resume {text}: {what}")
 
+    if not text.strip():
+        raise UsageError("--resume is empty; give the .npz of a run")
     path = Path(text)
     if not path.exists():
         raise bad("no such file")
