@@ -3,8 +3,9 @@
 Results go to stdout, logs, progress and errors to stderr. Exit codes: 0 ok; 2 bad usage (unknown scene, bad
 parameter, an output path that cannot be written), found before anything runs; 1 a failure while running (no
 device, a build error, a pool or grid that runs out, a file that cannot be written); 130 interrupted (Ctrl-C),
-143 terminated (SIGTERM). Every error is one line; an interrupted run leaves earlier output files untouched (a
-file is written to a temporary name and renamed when complete).
+143 terminated (SIGTERM). Every error is one line (a usage error two: the short usage and the error). The
+outputs of a run are written to temporary names and renamed together at its end (``io.Outputs``); an interrupted
+run says exactly which files it had written, and every other file is the previous one.
 """
 
 from __future__ import annotations

@@ -1,5 +1,6 @@
-"""Files of a run: atomic writes, the .npz record of a state and how it was made, reading one back to resume, and
-the checks of an output path made before anything runs.
+"""Files of a run: atomic writes (``written_whole``) and the outputs of one run committed together (``Outputs``),
+the .npz record of a state and how it was made, reading one back to resume with every field checked
+(``load_checkpoint``), and the checks of an output path made before anything runs.
 
 UsageError lives here, the lowest module that raises it: bad input found before a run starts (the front ends
 ``ugpcl`` and ``ugpcl-view`` print it as one line and exit 2).
