@@ -310,9 +310,12 @@ def test_sigkill_while_the_npz_is_written_keeps_the_previous_file(tmp_path):
     argv = [_ugpcl(), "run", "stable_fluids_2d", "--steps", "40", "--every", "1", "--out", str(out)]
     argv += ["--set", "width=1024", "height=1024"]  # ~170 MB of history: the write takes a while
     proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    partial = tmp_path / ".x.partial.npz"
     deadline = time.monotonic() + 240
-    while not (partial.exists() and partial.stat().st_size > 0) and proc.poll() is None:
+
+    def writing() -> bool:  # a temporary '.x.PID-RANDOM.partial.npz' (io.temporary_beside) has data
+        return any(p.stat().st_size > 0 for p in tmp_path.glob(".x.*.partial.npz"))
+
+    while not writing() and proc.poll() is None:
         assert time.monotonic() < deadline, "the run never started writing"
         time.sleep(0.002)
     proc.kill()
@@ -335,7 +338,7 @@ def test_divergence_is_one_line_exit_1_and_writes_only_when_asked(capsys, tmp_pa
 
 def test_inf_where_a_scene_means_it_is_no_divergence(capsys, tmp_path):
     """poisson_disk's nn_dist is inf for a lone sample (the first step's one point); NaN there still diverges."""
-    from ugpcl.run import non_finite
+    from ugpcl.io import non_finite
 
     state = {"nn_dist": np.array([np.inf]), "other": np.array([np.inf]), "n": np.array([1])}
     assert non_finite(state, ("nn_dist",)) == ["other"]
@@ -385,7 +388,7 @@ def test_resume_refuses_what_it_cannot_continue(capsys, tmp_path):
     code, _, err = run(capsys, "run", "--resume", str(not_ours))
     assert code == 2 and "not written by ugpcl run" in err
     code, _, err = run(capsys, "run", "--resume", str(tmp_path / "missing.npz"))
-    assert code == 2 and err.count("\n") == 1 and "cannot read it" in err
+    assert code == 2 and err.count("\n") == 1 and "missing.npz: no such file" in err
     b = tmp_path / "b.npz"
     assert run(capsys, "run", "boids", "--steps", "1", "--set", "max_object_num=64", "--out", str(b))[0] == 0
     code, _, err = run(capsys, "run", "--resume", str(b), "--set", "max_speed=2")

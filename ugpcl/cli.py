@@ -3,8 +3,9 @@
 Results go to stdout, logs, progress and errors to stderr. Exit codes: 0 ok; 2 bad usage (unknown scene, bad
 parameter, an output path that cannot be written), found before anything runs; 1 a failure while running (no
 device, a build error, a pool or grid that runs out, a file that cannot be written); 130 interrupted (Ctrl-C),
-143 terminated (SIGTERM). Every error is one line; an interrupted run leaves earlier output files untouched (a
-file is written to a temporary name and renamed when complete).
+143 terminated (SIGTERM). Every error is one line (a usage error two: the short usage and the error). The
+outputs of a run are written to temporary names and renamed together at its end (``io.Outputs``); an interrupted
+run says exactly which files it had written, and every other file is the previous one.
 """
 
 from __future__ import annotations
@@ -23,9 +24,20 @@ import pyopencl as cl
 
 from . import __version__
 from .geometry.mesh_io import MESH_SUFFIXES
-from .io import UsageError, load_checkpoint, output_folder, output_path, record, write_npz, written_whole
+from .io import (
+    Outputs,
+    UsageError,
+    load_checkpoint,
+    output_folder,
+    output_path,
+    record,
+    save_npz,
+    write_npz,
+    written_whole,
+)
 from .options import (
     MAX_SEED,
+    ArgumentParser,
     HelpFormatter,
     parse_sets,
     parse_size,
@@ -34,7 +46,7 @@ from .options import (
     scene_params,
 )
 from .registry import scenes
-from .run import Diverged, open_simulation, report, restore_checkpoint, run_steps, write_pictures
+from .run import Diverged, open_simulation, prepare_pictures, report, restore_checkpoint, run_steps
 from .runtime import BuildError, DeviceError, Runtime, all_devices
 from .scene import check_dt
 from .stopping import StopWatch, Terminated
@@ -106,29 +118,23 @@ def cmd_params(args) -> int:
 
 
 def cmd_run(args) -> int:
+    outputs = args.outputs = Outputs()  # main() says from it what an interrupted run wrote
     # {{{ everything that can be checked before the run
-    resume = load_checkpoint(args.resume) if args.resume else None
-    if resume is not None:
+    if args.resume is not None:
+        resume = load_checkpoint(args.resume, args.scene)
         if args.set or args.seed is not None:
             raise UsageError("--resume takes the scene, its parameters and the seed from the file; drop --set/--seed")
         if args.every:
             raise UsageError("--every cannot be combined with --resume (the history would start at the checkpoint)")
-        if args.scene and args.scene != str(resume["scene"]):
-            raise UsageError(f"--resume {args.resume} holds scene {resume['scene']}, not {args.scene}")
-        args.scene = str(resume["scene"])
-        recorded = json.loads(str(resume["params"]))
-        args.dt = recorded.pop("dt") if args.dt is None else args.dt
-        args.seed = int(resume["seed"])
-    if not args.scene:
-        raise UsageError("run needs a scene (see `ugpcl list`) or --resume FILE")
-    scene = scene_named(args.scene)
-    if resume is not None:
-        if not scene.simulation.resumable():
-            raise UsageError(f"--resume: scene {scene.name} cannot resume (it does not restore its state)")
-        params = scene_params(scene, recorded)
+        scene, params, seed = resume.scene, resume.params, resume.seed
+        args.dt = resume.dt if args.dt is None else args.dt
     else:
+        resume = None
+        if not args.scene:
+            raise UsageError("run needs a scene (see `ugpcl list`) or --resume FILE")
+        scene = scene_named(args.scene)
         params = scene_params(scene, parse_sets(scene, args.set or []))
-    seed = 0 if args.seed is None else args.seed
+        seed = 0 if args.seed is None else args.seed
     if args.steps < 0:
         raise UsageError(f"--steps must be >= 0, got {args.steps}")
     if not 0 <= seed <= MAX_SEED:
@@ -145,27 +151,29 @@ def cmd_run(args) -> int:
         raise UsageError(f"--{err}") from None
     if args.mesh and not hasattr(scene.simulation, "export_mesh"):
         raise UsageError(f"--mesh: scene {scene.name} makes no mesh")
-    out = output_path(args.out or f"out/{scene.name}.npz", "--out", (".npz",))
-    checkpoint = output_path(
-        args.checkpoint or (str(out.with_name(f"{out.stem}.checkpoint.npz")) if args.checkpoint_every else None),
-        "--checkpoint",
-        (".npz",),
-    )
+    out = output_path(f"out/{scene.name}.npz" if args.out is None else args.out, "--out", (".npz",))
+    if args.checkpoint is None and args.checkpoint_every:
+        args.checkpoint = str(out.with_name(f"{out.stem}.checkpoint.npz"))
+    checkpoint = output_path(args.checkpoint, "--checkpoint", (".npz",))
     png = output_path(args.png, "--png", (".png",))
-    recording = output_path(args.video, "--video", (".mp4", ".webp")) or output_folder(args.frames, "--frames")
-    if args.video and args.frames:
+    if args.video is not None and args.frames is not None:
         raise UsageError("--video and --frames: give one (a run records one sequence)")
+    recording = output_path(args.video, "--video", (".mp4", ".webp")) or output_folder(args.frames, "--frames")
     mesh = output_path(args.mesh, "--mesh", MESH_SUFFIXES)
     size = parse_size(args.png_size)
+    first_frame = recording / "frame-000000.png" if args.frames is not None else recording
+    for path in (out, checkpoint, png, mesh, first_frame):  # leftovers of a killed run in these folders go
+        outputs.target(path)
     # }}}
     runtime = Runtime.shared(args.device)
-    sim = open_simulation(scene, params, seed, runtime, announce=True)
-    if resume is not None:
+    sim = open_simulation(scene, params, seed, runtime, announce=resume is None)
+    if resume is not None:  # announced once restored: a checkpoint refused then is still one line
         restore_checkpoint(sim, resume)
-        print(f"ugpcl: resumed {args.resume} at step {sim.steps}", file=sys.stderr)
+        print(f"ugpcl: {scene.name} on {runtime.label}, resumed {args.resume} at step {sim.steps}", file=sys.stderr)
 
     def save_checkpoint(state: dict) -> None:
         write_npz(checkpoint, record(sim, state, dt))
+        outputs.note(checkpoint, f"checkpoint {checkpoint} at step {sim.steps}")
 
     start = time.perf_counter()
     diverged = None
@@ -179,26 +187,43 @@ def cmd_run(args) -> int:
             frames = None
             if recorder:
                 render = renderer(scene, sim, size)
-                frames = (args.every or 1, lambda: recorder.add(render()))
+
+                def add_frame() -> None:
+                    recorder.add(render())
+                    if args.frames:  # each frame is in place as soon as it is added
+                        outputs.note(recording, f"{recorder.frames} frames in {recording}")
+
+                frames = (args.every or 1, add_frame)
             state = run_steps(sim, args.steps, dt, history, args.quiet, checkpoints, frames)
         if recorder:
+            outputs.note(recording, f"{recording} ({recorder.frames} frames)")
             print(f"wrote {recording} ({recorder.frames} frames)")
     except Diverged as err:
         sets = " ".join(args.set or []) or "none (the scene's defaults)"
         diverged = f"{err}; parameters set: {sets}"
         if not args.keep_diverged:
-            raise RuntimeError(f"{diverged}; nothing was written (--keep-diverged writes it anyway)") from None
+            raise RuntimeError(f"{diverged}; {outputs.summary()} (--keep-diverged writes it anyway)") from None
         state = {**err.state, "diverged": np.bool_(True)}
     runtime.finish()
     seconds = time.perf_counter() - start
-    write_npz(out, record(sim, state, dt))
-    print(f"wrote {out} ({args.steps} steps in {seconds:.2f} s): {', '.join(sorted(state))}")
-    if diverged:  # the state is written as asked; no picture or mesh of NaN
+    # every file to a temporary name first, then all renamed in this order: an interrupt before the renames
+    # leaves every earlier file as it was; a diverged state (--keep-diverged) is written as asked, without pictures
+    with outputs:
+        arrays = record(sim, state, dt)
+        outputs.prepare("--out", out, save_npz(arrays), None if diverged else arrays, sim.may_be_infinite)
+        if not diverged:
+            prepare_pictures(outputs, sim, mesh, png, size)
+        outputs.commit()
+    took = f"{outputs.sizes[out]} bytes, {args.steps} steps in {seconds:.2f} s"
+    print(f"wrote {out} ({took}): {', '.join(sorted(state))}")
+    if diverged:
         print(f"ugpcl: error: {diverged}", file=sys.stderr)
         return RUNTIME_ERROR
     for key, value in sim.stats().items():
         print(f"  {key}: {value}")
-    write_pictures(sim, mesh, png, size, log=print)
+    for path in (mesh, png):
+        if path:
+            print(f"wrote {path} ({outputs.sizes[path]} bytes)")
     return 0
 
 
@@ -282,7 +307,7 @@ def cmd_bench(args) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     fmt = HelpFormatter
-    device = argparse.ArgumentParser(add_help=False)
+    device = ArgumentParser(add_help=False)
     device.add_argument(
         "--device",
         default=None,
@@ -290,9 +315,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="OpenCL device: a substring of 'platform | device' such as pocl or nvidia (also UGPCL_DEVICE; "
         "unset: PYOPENCL_CTX, then the first GPU, then the first CPU)",
     )
-    parser = argparse.ArgumentParser(
-        prog="ugpcl", description=__doc__.splitlines()[0], formatter_class=fmt, allow_abbrev=False
-    )
+    parser = ArgumentParser(prog="ugpcl", description=__doc__.splitlines()[0], formatter_class=fmt, allow_abbrev=False)
     parser.add_argument("--version", action="version", version=f"ugpcl {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
 
@@ -386,10 +409,16 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def stopped_line(signum: int) -> str:
-    """The last line of a run ended by Ctrl-C or SIGTERM."""
+def written(args) -> str:
+    """What a stopped command had written: ``nothing was written``, or what its Outputs committed."""
+    outputs = getattr(args, "outputs", None)
+    return outputs.summary() if outputs else "nothing was written"
+
+
+def stopped_line(signum: int, args) -> str:
+    """The last line of a command ended by Ctrl-C or SIGTERM."""
     how = "interrupted" if signum == signal.SIGINT else "terminated (SIGTERM)"
-    return f"ugpcl: {how}; nothing was written"
+    return f"ugpcl: {how}; {written(args)}"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -398,7 +427,7 @@ def main(argv: list[str] | None = None) -> int:
     # Ctrl-C and SIGTERM end a run within stopping.GRACE seconds, old outputs untouched (only from the main thread,
     # where signals arrive; the caller's handlers are put back afterwards)
     in_main = threading.current_thread() is threading.main_thread()
-    with StopWatch(stopped_line) if in_main else nullcontext() as watch:
+    with StopWatch(lambda signum: stopped_line(signum, args)) if in_main else nullcontext() as watch:
         try:
             code = args.func(args)
             sys.stdout.flush()  # a closed pipe shows here, inside the try, rather than at exit
@@ -416,7 +445,7 @@ def main(argv: list[str] | None = None) -> int:
             return RUNTIME_ERROR
         except (KeyboardInterrupt, Terminated) as err:
             signum = signal.SIGINT if isinstance(err, KeyboardInterrupt) else signal.SIGTERM
-            print(stopped_line(signum), file=sys.stderr, flush=True)
+            print(stopped_line(signum, args), file=sys.stderr, flush=True)
             if watch:
                 watch.reported()
             return INTERRUPTED if signum == signal.SIGINT else TERMINATED

@@ -25,6 +25,13 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
         return super()._get_help_string(action)
 
 
+class ArgumentParser(argparse.ArgumentParser):
+    """argparse's parser whose usage errors are two lines, not the whole usage: the short form and the error."""
+
+    def error(self, message: str):
+        self.exit(2, f"usage: {self.prog} ... (see {self.prog} --help)\n{self.prog}: error: {message}\n")
+
+
 def scene_named(name: str) -> Scene:
     try:
         return get(name)
@@ -33,15 +40,20 @@ def scene_named(name: str) -> Scene:
 
 
 def parse_sets(scene: Scene, pairs: list[str]) -> dict:
-    """``--set NAME=VALUE`` pairs converted with each field's type; UsageError names the bad one."""
+    """``--set NAME=VALUE`` pairs converted with each field's type; UsageError names the bad one, and a name
+    given twice (no last-one-wins: a typo in a long command line would hide)."""
     params = scene.simulation.Params
-    out = {}
+    out, given = {}, {}
     for pair in pairs:
         name, sep, text = pair.partition("=")
+        name = name.strip()
         if not sep:
             raise UsageError(f"--set expects name=value, got {pair!r}")
+        if name in given:
+            raise UsageError(f"--set {name} is given twice ({given[name]!r} and {pair!r}); give each parameter once")
+        given[name] = pair
         try:
-            out[name.strip()] = params.parse(name.strip(), text)
+            out[name] = params.parse(name, text)
         except ValueError as err:
             raise UsageError(str(err)) from None
     return out

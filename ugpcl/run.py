@@ -17,7 +17,7 @@ import numpy as np
 import pyopencl as cl
 
 from . import resources
-from .io import UsageError, written_whole
+from .io import Checkpoint, Outputs, UsageError, non_finite
 from .runtime import Runtime
 from .scene import ParamError, Params, Scene, Simulation
 
@@ -37,17 +37,6 @@ class Diverged(RuntimeError):
         steps = f"step {last}" if first == last else f"steps {first} and {last}"
         super().__init__(f"diverged between {steps}: {', '.join(arrays)} hold NaN or inf")
         self.state = state
-
-
-def non_finite(state: dict, may_be_infinite: tuple[str, ...] = ()) -> list[str]:
-    """Names of the floating-point arrays of ``state`` that hold NaN or inf (only NaN for ``may_be_infinite``)."""
-    bad = []
-    for key, value in state.items():
-        if np.issubdtype(np.asarray(value).dtype, np.floating):
-            finite = ~np.isnan(value) if key in may_be_infinite else np.isfinite(value)
-            if not finite.all():
-                bad.append(key)
-    return bad
 
 
 class Watch:
@@ -186,26 +175,41 @@ def open_simulation(scene: Scene, params: Params, seed: int, runtime: Runtime, a
     return sim
 
 
-def restore_checkpoint(sim: Simulation, found: dict) -> None:
-    """Put ``sim`` where a checkpoint (``io.load_checkpoint``) left it: its state, step count and clock."""
-    sim.restore(found)
-    sim.steps, sim.time = int(found["steps"]), float(found["sim_time"])
+def restore_checkpoint(sim: Simulation, checkpoint: Checkpoint) -> None:
+    """Put ``sim`` where a checkpoint (``io.load_checkpoint``) left it: its state, step count and clock, after
+    checking each array against the state the scene holds for these parameters (name, dtype, shape, finite)."""
+    fresh = sim.state()
+    for key, value in fresh.items():
+        expected = np.asarray(value)
+        found = checkpoint.arrays.get(key)
+        if found is None:
+            raise UsageError(f"--resume {checkpoint.path}: no array {key!r} (scene {sim.scene.name} keeps it)")
+        if (found.dtype, found.shape) != (expected.dtype, expected.shape):
+            raise UsageError(
+                f"--resume {checkpoint.path}: array {key} is {found.dtype} of shape {found.shape}; "
+                f"its parameters make {expected.dtype} of shape {expected.shape}"
+            )
+    if bad := non_finite({key: checkpoint.arrays[key] for key in fresh}, sim.may_be_infinite):
+        raise UsageError(f"--resume {checkpoint.path}: {', '.join(bad)} hold NaN or inf")
+    sim.restore(checkpoint.arrays)
+    sim.steps, sim.time = checkpoint.steps, checkpoint.sim_time
 
 
-def write_pictures(sim: Simulation, mesh: Path | None, png: Path | None, size: tuple[int, int], log=None) -> None:
-    """The mesh and the PNG of a finished run, each written whole; ``log`` is told each file written."""
+def prepare_pictures(outputs: Outputs, sim: Simulation, mesh: Path | None, png: Path | None, size) -> None:
+    """The mesh and the PNG of a finished run, written to ``outputs``' temporary files (committed with the rest)."""
     if mesh:
-        with written_whole(mesh) as partial:
-            sim.export_mesh(partial)
-        if log:
-            log(f"wrote {mesh}")
+        outputs.prepare("--mesh", mesh, sim.export_mesh)
     if png:
         from .viewer.offscreen import render_png
 
-        with written_whole(png) as partial:
-            render_png(sim.scene, sim, partial, size)
-        if log:
-            log(f"wrote {png}")
+        outputs.prepare("--png", png, lambda path: render_png(sim.scene, sim, path, size))
+
+
+def write_pictures(sim: Simulation, mesh: Path | None, png: Path | None, size: tuple[int, int]) -> None:
+    """The mesh and the PNG of a finished run, each written whole, both or neither."""
+    with Outputs() as outputs:
+        prepare_pictures(outputs, sim, mesh, png, size)
+        outputs.commit()
 
 
 def report(prog: str, err: BaseException) -> str:

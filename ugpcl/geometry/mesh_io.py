@@ -28,6 +28,10 @@ MESH_SUFFIXES = (".obj", ".ply", ".glb")
 """The formats ``write_mesh`` writes, by file extension (``--mesh``)."""
 
 
+class NonFinite(ValueError):
+    """An output would hold NaN or inf: refused before anything is written (one line, exit 1)."""
+
+
 def write_mesh(path, mesh: Mesh, lines=None) -> None:
     """Write ``mesh`` (and ``lines``: (L, 2) indices into ``mesh.vertices``) in the format its suffix names."""
     path = Path(path)
@@ -37,6 +41,10 @@ def write_mesh(path, mesh: Mesh, lines=None) -> None:
         raise ValueError(f"lines must index 0..{len(mesh.vertices) - 1}, got {lines.min()}..{lines.max()}")
     if suffix not in MESH_SUFFIXES:
         raise ValueError(f"--mesh must end in {' or '.join(MESH_SUFFIXES)}, got {str(path)!r}")
+    attributes = {"vertices": mesh.vertices, "normals": mesh.normals, "uvs": mesh.uvs}
+    bad = [name for name, values in attributes.items() if values is not None and not np.isfinite(values).all()]
+    if bad:
+        raise NonFinite(f"mesh {' and '.join(bad)} hold NaN or inf")
     path.parent.mkdir(parents=True, exist_ok=True)
     if suffix == ".obj":
         _write_obj(path, mesh, lines)
