@@ -1,14 +1,18 @@
-"""Device memory a parameter set asks for, compared with what the device can give, before anything is allocated.
+"""Memory a parameter set asks for, compared with what the device and the host can give, before anything is allocated.
 
-A Simulation lists its large buffers and images with ``allocations(params)``; each names the parameter that
-sizes it. ``check(simulation, params, device)`` raises ``ResourceError`` with one line naming that parameter, its
-value and the largest value this device takes (found by bisection over the parameter's range, the other
-parameters kept), rather than letting ``clCreateBuffer`` fail half-way through a reset.
+A Simulation lists its large buffers and images, and its large host arrays at their peak, with
+``allocations(params)``; each names the parameter that sizes it. Device buffers are checked against the device
+(one buffer, all of them, image sizes); host arrays, and on a CPU device the device buffers too (they live in the
+same memory), against the host memory available now. ``check(simulation, params, device)`` raises
+``ResourceError`` with one line naming that parameter, its value and the largest value this device takes (found by
+bisection over the parameter's range, the other parameters kept), rather than letting ``clCreateBuffer`` fail
+half-way through a reset.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import os
 from dataclasses import dataclass
 
 import pyopencl as cl
@@ -27,6 +31,26 @@ class Allocation:
     """The parameter that sizes it (an int field of the scene's Params)."""
     image: tuple[int, ...] | None = None
     """Width, height (and depth) when it is an image: checked against the device's image limits too."""
+    count: int = 1
+    """How many buffers of ``nbytes`` each (six textures per drawable)."""
+    host: bool = False
+    """Host memory (numpy arrays, temporaries at their peak) rather than a device buffer."""
+
+    @property
+    def total(self) -> int:
+        return self.nbytes * self.count
+
+
+def host_memory_available() -> int:
+    """Bytes of host memory a run can take now (MemAvailable: free memory plus caches the kernel can drop)."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
 
 
 def gib(nbytes: int) -> str:
@@ -34,8 +58,10 @@ def gib(nbytes: int) -> str:
 
 
 def problem(allocations: list[Allocation], device: cl.Device) -> tuple[Allocation | None, str]:
-    """The first allocation the device cannot hold and what it needs beyond the limit ((None, '') when all fit)."""
-    for a in allocations:
+    """The first allocation the device or the host cannot hold and what it needs beyond the limit ((None, '') when
+    all fit)."""
+    on_device = [a for a in allocations if not a.host]
+    for a in on_device:
         if a.nbytes > device.max_mem_alloc_size:
             return a, f"a {gib(a.nbytes)} {a.what}, over the {gib(device.max_mem_alloc_size)} one buffer may hold"
         if a.image is not None:
@@ -47,10 +73,15 @@ def problem(allocations: list[Allocation], device: cl.Device) -> tuple[Allocatio
             if any(s > m for s, m in zip(a.image, limits, strict=True)):
                 size, most = "x".join(map(str, a.image)), "x".join(map(str, limits))
                 return a, f"a {size} {a.what}, over the {most} an image may have"
-    total = sum(a.nbytes for a in allocations)
-    if allocations and total > device.global_mem_size:
-        biggest = max(allocations, key=lambda a: a.nbytes)
+    total = sum(a.total for a in on_device)
+    if on_device and total > device.global_mem_size:
+        biggest = max(on_device, key=lambda a: a.total)
         return biggest, f"{gib(total)} of buffers, over the {gib(device.global_mem_size)} of device memory"
+    in_host = [a for a in allocations if a.host or device.type & cl.device_type.CPU]
+    need, available = sum(a.total for a in in_host), host_memory_available()
+    if in_host and need > available:
+        biggest = max(in_host, key=lambda a: a.total)
+        return biggest, f"{gib(need)} of host memory, over the {gib(available)} available now"
     return None, ""
 
 

@@ -147,20 +147,26 @@ def snoise2d(v: np.ndarray) -> np.ndarray:
     return 130.0 * np.sum(m * g, -1)
 
 
+SHAPE_BLOCK_TEXELS = 1 << 20
+"""Texels of the spray shape computed at a time: the noise's float64 temporaries (about 360 bytes a texel) stay
+near 360 MB at any ``shape_res``."""
+
+
 def spray_shape(res: int, edge: float, freq: float, amp: float) -> np.ndarray:
     """The spray's footprint (the sample's SprayPaintTexGen): rgb = 1, alpha = a soft disc of radius ~0.5 whose rim
     wobbles with simplex noise around the circle; (res, res, 4) float32, alpha 1 at the centre."""
     centres = (np.arange(res) + 0.5) / res - 0.5
-    xy = np.stack(np.meshgrid(centres, centres), -1)
-    d = np.linalg.norm(xy, axis=-1)
-    direction = xy / np.maximum(d, 1e-12)[..., None]
-    radius = 0.5 - amp + amp * snoise2d(direction * freq)
-    lo, hi = radius * (1.0 - edge), radius
-    t = np.clip((d - lo) / np.maximum(hi - lo, 1e-12), 0.0, 1.0)
-    alpha = np.where(d >= hi, 0.0, 1.0 - t * t * (3.0 - 2.0 * t))
-    alpha = np.where(d <= lo, 1.0, alpha)
     shape = np.ones((res, res, 4), np.float32)
-    shape[..., 3] = alpha
+    rows = max(1, SHAPE_BLOCK_TEXELS // res)
+    for start in range(0, res, rows):  # each row on its own: blocks of rows give the same texels
+        xy = np.stack(np.meshgrid(centres, centres[start : start + rows]), -1)
+        d = np.linalg.norm(xy, axis=-1)
+        direction = xy / np.maximum(d, 1e-12)[..., None]
+        radius = 0.5 - amp + amp * snoise2d(direction * freq)
+        lo, hi = radius * (1.0 - edge), radius
+        t = np.clip((d - lo) / np.maximum(hi - lo, 1e-12), 0.0, 1.0)
+        alpha = np.where(d >= hi, 0.0, 1.0 - t * t * (3.0 - 2.0 * t))
+        shape[start : start + rows, :, 3] = np.where(d <= lo, 1.0, alpha)
     return shape
 
 

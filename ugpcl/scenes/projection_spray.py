@@ -31,6 +31,7 @@ from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
 from ..geometry.projection_spray import (
     PRESETS,
+    SHAPE_BLOCK_TEXELS,
     Drawable,
     look_rotation,
     preset_drawables,
@@ -161,11 +162,21 @@ class Simulation(BaseSimulation):
 
     @classmethod
     def allocations(cls, params: Params) -> list:
-        texture = params.tex * params.tex * 16
+        texels, drawables = params.tex**2, 1 if params.preset == "figure" else 2
         return [
-            Allocation("texture (tex x tex float4)", texture, "tex"),
+            # per drawable: baked positions and normals, paint, canvas, guide and guide canvas (set_drawables)
+            Allocation("texture (tex x tex float4)", 16 * texels, "tex", count=6 * drawables),
             Allocation("depth map", params.depth_res**2 * 4, "depth_res"),
             Allocation("spray shape", params.shape_res**2 * 16, "shape_res"),
+            # host peaks, measured: the spray shape and its noise's float64 temporaries (360-400 bytes a texel, in
+            # blocks of SHAPE_BLOCK_TEXELS), bake's rasterisation (40 bytes a texel), the positions a drawable keeps
+            Allocation(
+                "spray shape (host)",
+                16 * params.shape_res**2 + 400 * min(params.shape_res**2, SHAPE_BLOCK_TEXELS),
+                "shape_res",
+                host=True,
+            ),
+            Allocation("baked textures (host)", 56 * texels, "tex", count=drawables, host=True),
         ]
 
     @property

@@ -1,0 +1,90 @@
+"""Memory counted before allocation (ugpcl.resources): every scene declares the device buffers it makes, and a
+parameter set over the device's or the host's memory is refused in one line naming the largest value that fits."""
+
+from __future__ import annotations
+
+import numpy as np
+import pyopencl as cl
+import pyopencl.array as cla
+import pytest
+
+from ugpcl import resources
+from ugpcl.cli import main
+from ugpcl.registry import scenes
+from ugpcl.runtime import Runtime
+
+
+def device_bytes(sim) -> int:
+    """Bytes of every OpenCL buffer and image reachable from the simulation's attributes (each counted once)."""
+    found: dict[int, int] = {}
+    seen: set[int] = set()
+
+    def walk(obj, depth: int = 0) -> None:
+        if id(obj) in seen or depth > 8 or isinstance(obj, Runtime):  # the runtime's kernels hold others' buffers
+            return
+        seen.add(id(obj))
+        if isinstance(obj, cla.Array):
+            found[obj.base_data.int_ptr] = obj.base_data.size
+        elif isinstance(obj, cl.MemoryObjectHolder):
+            found[obj.int_ptr] = obj.size
+        elif isinstance(obj, dict):
+            for value in obj.values():
+                walk(value, depth + 1)
+        elif isinstance(obj, list | tuple | set):
+            for value in obj:
+                walk(value, depth + 1)
+        elif hasattr(obj, "__dict__") and type(obj).__module__.startswith("ugpcl"):
+            for value in vars(obj).values():
+                walk(value, depth + 1)
+
+    walk(sim)
+    return sum(found.values())
+
+
+@pytest.mark.parametrize("name", list(scenes()))
+def test_declared_buffers_cover_what_the_scene_allocates(runtime, name):
+    scene = scenes()[name]
+    params = scene.params()
+    sim = scene.simulation(runtime, params, 0)
+    declared = sum(a.total for a in sim.allocations(params) if not a.host)
+    real = device_bytes(sim)
+    assert real <= 1.1 * declared + (16 << 20), (
+        f"{name}: {real / 2**20:.1f} MiB on the device, {declared / 2**20:.1f} declared"
+    )
+
+
+def test_projection_spray_counts_six_textures_per_drawable_and_names_the_largest_tex(runtime, capsys, tmp_path):
+    code = main(["run", "projection_spray", "--set", "tex=8192", "--steps", "1", "--out", str(tmp_path / "x.npz")])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1, err
+    largest = int(err.rsplit("the largest tex it takes is ", 1)[1])
+    # the largest tex is one whose 12 float4 textures (two drawables) fit the device beside the depth map and shape
+    limit = min(runtime.device.global_mem_size, resources.host_memory_available())
+    assert 12 * 16 * largest**2 <= limit < 12 * 16 * (largest + 64) ** 2 + (64 << 20), (largest, limit)
+    assert not (tmp_path / "x.npz").exists()
+
+
+def test_a_request_over_the_host_memory_is_refused_with_the_largest_value(runtime, monkeypatch, capsys, tmp_path):
+    monkeypatch.setattr(resources, "host_memory_available", lambda: 256 << 20)
+    code = main(
+        ["run", "procedural_modeling_forest", "--set", "trees=1024", "--steps", "1", "--out", str(tmp_path / "x.npz")]
+    )
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "of host memory, over the 256.0 MiB available now" in err, err
+    largest = int(err.rsplit("the largest trees it takes is ", 1)[1])
+    scene = scenes()["procedural_modeling_forest"]
+    cpu = bool(runtime.device.type & cl.device_type.CPU)  # a CPU device's buffers are host memory too
+
+    def host_bytes(trees: int) -> int:
+        return sum(a.total for a in scene.simulation.allocations(scene.params(trees=trees)) if a.host or cpu)
+
+    need, more = host_bytes(largest), host_bytes(largest + 1)
+    assert need <= 256 << 20 < more, (largest, need, more)
+
+
+def test_the_spray_shape_is_computed_in_blocks_with_the_same_texels(monkeypatch):
+    from ugpcl.geometry import projection_spray as ps
+
+    whole = ps.spray_shape(300, 0.1, 10.0, 0.02)
+    monkeypatch.setattr(ps, "SHAPE_BLOCK_TEXELS", 7 * 300)  # blocks of 7 rows, the last one shorter
+    assert np.array_equal(ps.spray_shape(300, 0.1, 10.0, 0.02), whole)
