@@ -264,11 +264,15 @@ def test_progress_bar_counts_finished_steps(runtime, tmp_path):
     assert counts[0] < 40 and counts[-1] == 40 and len(set(counts)) >= 3, counts
 
 
-def test_view_without_a_display_says_so_in_one_line():
+@pytest.mark.parametrize("display", [None, ":99"], ids=["unset", "no-server"])
+def test_view_without_a_display_says_so_in_one_line(display):
     env = {k: v for k, v in __import__("os").environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    if display:
+        env["DISPLAY"] = display  # no X server listens there
     view = __import__("pathlib").Path(sys.executable).parent / "ugpcl-view"
     result = subprocess.run([str(view), "boids"], capture_output=True, text=True, timeout=60, env=env)
-    assert result.returncode == 1 and result.stderr.count("\n") == 1 and "no display" in result.stderr
+    assert result.returncode == 1 and result.stderr.count("\n") == 1 and "no display" in result.stderr, result.stderr
+    assert ("DISPLAY=:99 does not answer" if display else "DISPLAY is not set") in result.stderr
 
 
 def test_a_pyopencl_ctx_that_selects_nothing_is_one_line(capsys, monkeypatch, tmp_path):

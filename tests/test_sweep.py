@@ -197,3 +197,59 @@ def test_tuple_values_and_run_names():
         run_name({"wall_size": (8.0, 8.0, 8.0), "input": "a/b c.png"}, 3)
         == "wall_size=8.0,8.0,8.0_input=a-b-c.png_seed=3"
     )
+
+
+# {{{ hostile input: seed ranges, damaged indexes, schedulers that are not Dask
+
+
+def test_a_huge_seed_range_is_refused_before_anything_is_listed(capsys, tmp_path):
+    start = time.perf_counter()
+    code, _, err = run(capsys, *BOIDS, "--seeds", "0-100000000", "--out", tmp_path / "s")
+    assert code == 2 and err.count("\n") == 1 and "100000001 seeds, over the 100000 runs" in err, err
+    code, _, err = run(capsys, *BOIDS, "--grid", "max_speed=2,3,4", "--seeds", "0-40000", "--out", tmp_path / "s")
+    assert code == 2 and err.count("\n") == 1 and "make 120003 runs, over the 100000" in err, err
+    code, _, err = run(capsys, *BOIDS, "--seeds", "0-9,5-20", "--out", tmp_path / "s")
+    assert code == 2 and "a seed appears twice" in err, err
+    assert time.perf_counter() - start < 5, "the seeds were listed before they were counted"
+    assert not (tmp_path / "s").exists()
+
+
+@pytest.mark.parametrize(
+    "text, says",
+    [
+        ("name,seed\nx,1\n", "not a sweep index (no run, status, steps, params column)"),
+        (b"\x89PNG\r\n\x1a\n\x00\xff\xfe", "not a sweep index"),
+        ("run,scene,seed,steps,status,params\nseed=0,boids,0,5,ok,{},extra\n", "line 2 does not match its header"),
+        ("run,scene,seed,steps,status,params\nseed=0,boids\n", "line 2 does not match its header"),
+    ],
+    ids=["no-run-column", "binary", "extra-cell", "truncated-row"],
+)
+def test_a_damaged_index_is_one_line(capsys, tmp_path, text, says):
+    out = tmp_path / "s"
+    out.mkdir()
+    (out / "index.csv").write_bytes(text if isinstance(text, bytes) else text.encode())
+    code, _, err = run(capsys, *BOIDS, "--seeds", "0", "--out", out)
+    assert code == 2 and err.strip().splitlines()[-1].startswith("ugpcl: error: ") and says in err, err
+    assert "Traceback" not in err and len([l for l in err.splitlines() if "error" in l]) == 1, err
+
+
+def test_a_scheduler_that_is_not_dask_is_refused_in_one_line(capsys, monkeypatch, tmp_path):
+    import socket
+
+    from ugpcl import sweep
+
+    monkeypatch.setattr(sweep, "HANDSHAKE_SECONDS", 1.0)
+    with socket.socket() as listener:  # accepts connections and never says a word
+        listener.bind(("127.0.0.1", 0))
+        listener.listen(4)
+        address = f"tcp://127.0.0.1:{listener.getsockname()[1]}"
+        start = time.perf_counter()
+        code, _, err = run(capsys, *BOIDS, "--seeds", "0", "--out", tmp_path / "s", "--scheduler", address)
+    assert time.perf_counter() - start < 10
+    assert code == 2 and "not a Dask scheduler (no greeting within 1 s)" in err.splitlines()[-1], err
+    for address, says in [("tls://10.0.0.1:8786", "TLS needs certificates"), ("tcp://127.0.0.1", "HOST:PORT")]:
+        code, _, err = run(capsys, *BOIDS, "--seeds", "0", "--out", tmp_path / "s", "--scheduler", address)
+        assert code == 2 and says in err.splitlines()[-1], err
+
+
+# }}}

@@ -228,7 +228,7 @@ def cmd_run(args) -> int:
 
 
 def cmd_sweep(args) -> int:
-    from .sweep import INDEX, parse_grid, parse_seeds, plan, sweep
+    from .sweep import INDEX, Tally, check_run_count, parse_grid, parse_seeds, plan, sweep
 
     scene = scene_named(args.scene)
     grid = parse_grid(scene, args.grid or [])
@@ -236,6 +236,7 @@ def cmd_sweep(args) -> int:
     for name in grid.keys() & sets.keys():
         raise UsageError(f"{name} is given by both --grid and --set")
     seeds = parse_seeds(args.seeds)
+    check_run_count(grid, seeds)
     if args.steps < 0:
         raise UsageError(f"--steps must be >= 0, got {args.steps}")
     try:
@@ -253,9 +254,10 @@ def cmd_sweep(args) -> int:
     jobs = plan(scene, grid, sets, seeds, out, args.png, mesh_suffix, **common)
     where = args.scheduler or "a local cluster"
     print(f"ugpcl: sweep {scene.name}: {len(jobs)} runs on {where}", file=sys.stderr)
-    counts = sweep(jobs, out, args.scheduler, args.device, args.quiet)
-    print(f"{out / INDEX}: {counts['ok']} ok, {counts['failed']} failed, {counts['skipped']} finished before")
-    return RUNTIME_ERROR if counts["failed"] else 0
+    args.outputs = Tally(out / INDEX)  # what a stopped sweep says it wrote
+    tally = sweep(jobs, out, args.scheduler, args.device, args.quiet, args.outputs)
+    print(f"{out / INDEX}: {tally.ok} ok, {tally.failed} failed, {tally.skipped} finished before")
+    return RUNTIME_ERROR if tally.failed else 0
 
 
 def bench_records(device: str, chapter: str, date: str, rows: list[dict]) -> list[dict]:

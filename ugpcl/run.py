@@ -63,8 +63,8 @@ class ProgressLines:
     """Signs of life when stderr is not a terminal (a log file, CI, a batch job): one line every ``interval``
     seconds, ``ugpcl: boids step 120/600 (20%), 31.2 steps/s, about 15 s left``. Same use as a tqdm bar."""
 
-    def __init__(self, label: str, total: int, interval: float):
-        self.label, self.total, self.interval = label, total, interval
+    def __init__(self, label: str, total: int, interval: float, unit: str = "step"):
+        self.label, self.total, self.interval, self.unit = label, total, interval, unit
         self.done, self.start = 0, time.monotonic()
         self.shown = self.start
 
@@ -76,8 +76,8 @@ class ProgressLines:
             rate = self.done / (now - self.start)
             left = (self.total - self.done) / rate if rate > 0 else float("inf")
             print(
-                f"ugpcl: {self.label} step {self.done}/{self.total} ({100 * self.done // self.total}%), "
-                f"{rate:.3g} steps/s, about {left:.0f} s left",
+                f"ugpcl: {self.label} {self.unit} {self.done}/{self.total} ({100 * self.done // self.total}%), "
+                f"{rate:.3g} {self.unit}s/s, about {left:.0f} s left",
                 file=sys.stderr,
                 flush=True,
             )
@@ -89,15 +89,16 @@ class ProgressLines:
         pass
 
 
-def progress(label: str, total: int, quiet: bool):
-    """A progress bar on a terminal; a line every PROGRESS_LINE_SECONDS otherwise; nothing with ``quiet``."""
+def progress(label: str, total: int, quiet: bool, unit: str = "step"):
+    """A progress bar on a terminal; a line every PROGRESS_LINE_SECONDS otherwise; nothing with ``quiet``. ``unit``:
+    what is counted (steps of a run, runs of a sweep)."""
     if quiet or not sys.stderr.isatty():
-        return ProgressLines(label, total, float("inf") if quiet else PROGRESS_LINE_SECONDS)
+        return ProgressLines(label, total, float("inf") if quiet else PROGRESS_LINE_SECONDS, unit)
     from tqdm import tqdm
 
     # a pseudo-terminal may report a 0 x 0 screen (script, some CI runners): tqdm would then draw nothing
     columns, lines = shutil.get_terminal_size()
-    return tqdm(total=total, unit="step", file=sys.stderr, mininterval=0.25, ncols=min(columns, 100), nrows=lines)
+    return tqdm(total=total, unit=unit, file=sys.stderr, mininterval=0.25, ncols=min(columns, 100), nrows=lines)
 
 
 def run_steps(

@@ -12,8 +12,10 @@ from __future__ import annotations
 import csv
 import itertools
 import logging
+import math
 import os
 import re
+import socket
 import sys
 import time
 import typing
@@ -59,9 +61,14 @@ def parse_grid(scene: Scene, items: list[str]) -> dict[str, list]:
     return grid
 
 
+MAX_RUNS = 100_000
+"""Most runs one sweep takes: its index lists every run and is rewritten after each result."""
+
+
 def parse_seeds(text: str) -> list[int]:
-    """``0-9``, ``3`` or ``1,4,7-9`` as a list of distinct seeds in [0, MAX_SEED]."""
-    seeds: list[int] = []
+    """``0-9``, ``3`` or ``1,4,7-9`` as a list of distinct seeds in [0, MAX_SEED]. The ranges are counted and checked
+    for overlaps before any list is made, so ``0-100000000`` is refused at once."""
+    ranges: list[tuple[int, int]] = []
     for part in text.split(","):
         match = re.fullmatch(r"\s*(\d+)\s*(?:-\s*(\d+)\s*)?", part)
         if not match:
@@ -69,10 +76,21 @@ def parse_seeds(text: str) -> list[int]:
         first, last = int(match[1]), int(match[2] or match[1])
         if first > last or last > MAX_SEED:
             raise UsageError(f"--seeds {part.strip()}: a range runs upward within [0, {MAX_SEED}]")
-        seeds += range(first, last + 1)
-    if len(set(seeds)) < len(seeds):
+        ranges.append((first, last))
+    count = sum(last - first + 1 for first, last in ranges)
+    if count > MAX_RUNS:
+        raise UsageError(f"--seeds {text}: {count} seeds, over the {MAX_RUNS} runs a sweep takes")
+    ordered = sorted(ranges)
+    if any(later[0] <= earlier[1] for earlier, later in itertools.pairwise(ordered)):
         raise UsageError(f"--seeds {text}: a seed appears twice")
-    return seeds
+    return [seed for first, last in ranges for seed in range(first, last + 1)]
+
+
+def check_run_count(grid: dict[str, list], seeds: list[int]) -> None:
+    """UsageError when the grid times the seeds is more than MAX_RUNS, before any run is planned."""
+    runs = len(seeds) * math.prod(len(values) for values in grid.values())
+    if runs > MAX_RUNS:
+        raise UsageError(f"--grid and --seeds make {runs} runs, over the {MAX_RUNS} a sweep takes")
 
 
 @dataclass(frozen=True)
@@ -204,11 +222,28 @@ def local_cluster_size(device: str | None) -> tuple[int, int]:
 
 
 def read_index(path: Path) -> dict[str, dict]:
-    """The rows of an earlier sweep's index by run name (none when there is no index yet)."""
+    """The rows of an earlier sweep's index by run name (none when there is no index yet); UsageError naming the file
+    when it is not one (damaged, truncated, another file)."""
     if not path.exists():
         return {}
-    with open(path, newline="") as f:
-        return {row["run"]: row for row in csv.DictReader(f)}
+    fix = "move it away or give another --out"
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            reader = csv.DictReader(f)
+            columns = reader.fieldnames or []
+            missing = [c for c in ("run", "status", "steps", "params") if c not in columns]
+            if missing:
+                raise UsageError(f"{path}: not a sweep index (no {', '.join(missing)} column); {fix}")
+            rows = {}
+            for row in reader:
+                if None in row or None in row.values():  # more or fewer cells than the header has columns
+                    raise UsageError(f"{path}: line {reader.line_num} does not match its header; {fix}")
+                rows[row["run"]] = row
+            return rows
+    except (csv.Error, UnicodeDecodeError) as err:
+        raise UsageError(f"{path}: not a sweep index ({err}); {fix}") from None
+    except OSError as err:
+        raise UsageError(f"{path}: cannot read it ({err.strerror}); {fix}") from None
 
 
 def finished(job: Job, row: dict | None) -> bool:
@@ -237,32 +272,83 @@ def write_index(path: Path, jobs: list[Job], rows: dict[str, dict]) -> None:
         writer.writerows(table)
 
 
-def sweep(jobs: list[Job], out: Path, scheduler: str | None, device: str | None, quiet: bool) -> dict[str, int]:
+HANDSHAKE_SECONDS = 5.0
+"""How long a --scheduler address has to greet a new connection: a Dask scheduler does it at once."""
+WORKERS_SECONDS = 60.0
+"""How long a sweep on a --scheduler waits for its first worker."""
+
+
+def check_scheduler(address: str) -> None:
+    """UsageError unless ``address`` is a tcp:// Dask scheduler that answers. Dask's own client waits forever on a
+    listener that accepts and never speaks, so the greeting is read here first, with a timeout."""
+    scheme, _, rest = address.rpartition("://")
+    if scheme not in ("", "tcp"):
+        why = "TLS needs certificates that ugpcl sweep does not take" if scheme == "tls" else f"{scheme}:// is not"
+        raise UsageError(f"--scheduler {address}: {why}; give a tcp://HOST:PORT scheduler")
+    host, _, port = rest.rpartition(":")
+    if not host or not port.isdigit():
+        raise UsageError(f"--scheduler {address}: expected tcp://HOST:PORT")
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=HANDSHAKE_SECONDS) as conn:
+            conn.settimeout(HANDSHAKE_SECONDS)
+            greeted = conn.recv(1)
+    except TimeoutError:
+        greeted = b""
+    except OSError as err:
+        raise UsageError(f"--scheduler {address}: cannot connect ({err.strerror or err})") from None
+    if not greeted:
+        raise UsageError(f"--scheduler {address}: not a Dask scheduler (no greeting within {HANDSHAKE_SECONDS:g} s)")
+
+
+@dataclass
+class Tally:
+    """How a sweep stands: the runs finished before it, ok and failed in it; what a stopped sweep says it wrote."""
+
+    index: Path
+    skipped: int = 0
+    ok: int = 0
+    failed: int = 0
+
+    def summary(self) -> str:
+        return f"{self.ok + self.failed} runs finished ({self.failed} failed), {self.skipped} before; see {self.index}"
+
+
+def sweep(
+    jobs: list[Job], out: Path, scheduler: str | None, device: str | None, quiet: bool, tally: Tally | None = None
+) -> Tally:
     """Run the jobs not finished yet on a Dask cluster (``scheduler``'s, or a LocalCluster made for this sweep),
-    keeping ``out/index.csv`` current; return how many were skipped, ok and failed."""
+    keeping ``out/index.csv`` current; ``tally`` (made here when not given) counts the runs skipped, ok and failed."""
     from distributed import Client, LocalCluster, as_completed
 
     index = out / INDEX
+    tally = tally or Tally(index)
     earlier = read_index(index)
     rows = {job.name: earlier[job.name] for job in jobs if finished(job, earlier.get(job.name))}
     todo = [job for job in jobs if job.name not in rows]
-    counts = {"skipped": len(rows), "ok": 0, "failed": 0}
+    tally.skipped = len(rows)
     write_index(index, jobs, rows)
     if not todo:
-        return counts
+        return tally
+    logging.getLogger("distributed").setLevel(logging.CRITICAL)  # a lost worker is a failed row, not log lines
     if scheduler:
+        check_scheduler(scheduler)
         cluster, client = None, Client(scheduler, timeout="20s")
+        try:
+            client.wait_for_workers(1, timeout=WORKERS_SECONDS)
+        except TimeoutError:
+            client.close()
+            raise RuntimeError(f"--scheduler {scheduler}: no worker joined within {WORKERS_SECONDS:g} s") from None
     else:
         workers, threads = local_cluster_size(device)
         cluster = LocalCluster(
-            n_workers=workers, threads_per_worker=threads, dashboard_address=":0", silence_logs=logging.ERROR
+            n_workers=workers, threads_per_worker=threads, dashboard_address=":0", silence_logs=logging.CRITICAL
         )
         client = Client(cluster)
     try:
         # keys of this sweep's own: a cluster that still holds an earlier sweep's results must run the job again
         by_key = {f"ugpcl-sweep-{job.name}-{time.time_ns()}": job for job in todo}
         futures = as_completed(client.map(run_job, list(by_key.values()), key=list(by_key)))
-        with progress(f"sweep {todo[0].scene}", len(todo), quiet) as bar:
+        with progress(f"sweep {todo[0].scene}", len(todo), quiet, unit="run") as bar:
             for future in futures:
                 job = by_key[future.key]
                 try:
@@ -275,16 +361,16 @@ def sweep(jobs: list[Job], out: Path, scheduler: str | None, device: str | None,
                 # recorded: let the cluster forget it, or the loss of the worker holding it would run it again
                 future.release()
                 rows[job.name] = row
-                counts[row["status"]] += 1
+                write_index(index, jobs, rows)
+                setattr(tally, row["status"], getattr(tally, row["status"]) + 1)
                 if row["status"] != "ok":
                     print(row["error"], file=sys.stderr, flush=True)
-                write_index(index, jobs, rows)
                 bar.update()
     finally:
         client.close()
         if cluster is not None:
             cluster.close()
-    return counts
+    return tally
 
 
 # }}}

@@ -11,6 +11,7 @@ starts at its ``Scene.interactive`` sizes, so that it runs at interactive rates;
 from __future__ import annotations
 
 import argparse
+import ctypes
 import os
 import sys
 import time
@@ -446,9 +447,10 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         sets = parse_sets(scene, args.set or [])
         width, height = parse_size(args.size, "--size")
-        if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        problem = _display_problem()
+        if problem:
             raise NoDisplay(
-                "no display to open a window on (DISPLAY is not set): run it in a desktop session or "
+                f"no display to open a window on ({problem}): run it in a desktop session or "
                 f"under xvfb-run, or render pictures with `ugpcl run {scene.name} --png out.png`"
             )
         runtime = Runtime(args.device)  # OpenCL before the GL window: see ugpcl.runtime.all_devices
@@ -470,6 +472,27 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         return 130
     return 0
+
+
+def _display_problem() -> str:
+    """Why no window can open here ('' when one can, or when this cannot be told): on Linux, no DISPLAY and no
+    WAYLAND_DISPLAY, or an X display that does not answer (asked through Xlib, which pyglet would use)."""
+    if not sys.platform.startswith("linux"):
+        return ""
+    display = os.environ.get("DISPLAY")
+    if not display:
+        return "" if os.environ.get("WAYLAND_DISPLAY") else "DISPLAY is not set"
+    try:
+        xlib = ctypes.CDLL("libX11.so.6")
+    except OSError:
+        return ""  # no Xlib to ask: let the window library try
+    xlib.XOpenDisplay.restype = ctypes.c_void_p
+    xlib.XCloseDisplay.argtypes = [ctypes.c_void_p]
+    connection = xlib.XOpenDisplay(None)
+    if not connection:
+        return f"the X server of DISPLAY={display} does not answer"
+    xlib.XCloseDisplay(connection)
+    return ""
 
 
 def _stamp() -> str:
