@@ -23,6 +23,7 @@ import numpy as np
 import pyopencl.cltypes as cltypes
 
 from ..random import key_of_seed, philox4x32, uniform01
+from ..resources import Allocation
 from ..scene import Animation, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
@@ -150,6 +151,20 @@ class Simulation(BaseSimulation):
     """The mode's sampler, run at reset; ``step`` reveals its output over time."""
 
     Params = Params
+
+    @classmethod
+    def allocations(cls, params: Params) -> list[Allocation]:
+        """The lattice, the density grid (density=grid) and the mode's output: the chains' samples or the
+        rejection's candidates (a point and an id each)."""
+        p, m = params, (params.L - 1 + 2 * GRID_MARGIN) * params.oversample + 1
+        out = [Allocation("noise lattice", p.L**3 * 4, "L")]
+        if p.density == "grid":
+            out.append(Allocation("density grid", m**3 * 4, "oversample"))
+        if p.mode == "metropolis":
+            out.append(Allocation("chain samples", p.chains * (p.samples * 12 + 13), "chains"))
+        elif p.mode == "rejection":
+            out.append(Allocation("rejection candidates", p.batches * p.limit * 16, "batches"))
+        return out
 
     def _reset(self) -> None:
         p, rt = self.params, self.runtime

@@ -150,7 +150,7 @@ class Simulation(StripSweeps, BaseSimulation):
         cells = params.width * params.height * params.depth
         floats = {"velocity": 4, "velocity (write)": 4, "density": 1, "density (write)": 1, "prev": 4,
                   "prev (write)": 4, "divergence": 1, "pressure": 1, "pressure (write)": 1, "source": 4,
-                  "solver": 4}  # the fields of _reset  # fmt: skip
+                  "no source": 4, "solver": 4}  # the fields of _reset  # fmt: skip
         return [Allocation(f"{name} field", cells * 4 * n, "width") for name, n in floats.items()]
 
     def _reset(self) -> None:

@@ -191,8 +191,10 @@ class Simulation(BaseSimulation):
         full = width * height * 16
         glow = full // (params.divide * params.divide)
         return [
-            Allocation("source or output image", full, "width"),
-            Allocation("streak layer buffer", glow * params.num_of_streak, "num_of_streak"),
+            Allocation("source image", full, "width"),
+            Allocation("output image", full, "width"),
+            Allocation("streak layers (three sets)", 3 * glow * params.num_of_streak, "num_of_streak"),
+            Allocation("glow images (four)", 4 * glow, "width"),
         ]
 
     def _reset(self) -> None:

@@ -19,6 +19,7 @@ Gauss-Seidel; the plane's normal map (normal.tga, not in the repository) is flat
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -119,6 +120,12 @@ class Simulation(BaseSimulation):
 
     Params = Params
     history = ("density", "velocity")
+
+    @classmethod
+    def allocations(cls, params: Params) -> list:
+        """The fluid's fields on a grid x grid square, sized by ``grid``."""
+        fluid = FluidParams(width=params.grid, height=params.grid)
+        return [dataclasses.replace(a, param="grid") for a in FluidSimulation.allocations(fluid)]
 
     def _reset(self) -> None:
         self.fluid = FluidSimulation(self.runtime, self.fluid_params(), self.seed)
