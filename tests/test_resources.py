@@ -92,3 +92,21 @@ def test_the_spray_shape_is_computed_in_blocks_with_the_same_texels(monkeypatch)
     whole = ps.spray_shape(300, 0.1, 10.0, 0.02)
     monkeypatch.setattr(ps, "SHAPE_BLOCK_TEXELS", 7 * 300)  # blocks of 7 rows, the last one shorter
     assert np.array_equal(ps.spray_shape(300, 0.1, 10.0, 0.02), whole)
+
+
+def test_a_size_of_two_sides_is_capped_side_by_side(runtime, monkeypatch, capsys, tmp_path):
+    """face_resolution is (width, height): the largest that fits caps every side, as --set takes it."""
+    monkeypatch.setattr(resources, "host_memory_available", lambda: 64 << 20)
+    argv = ["run", "multiplane_projection", "--set", "face_resolution=4096,2048", "--steps", "1"]
+    code = main([*argv, "--out", str(tmp_path / "x.npz")])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "face_resolution=4096,2048 needs" in err, err
+    width, height = map(int, err.rsplit("the largest face_resolution it takes is ", 1)[1].split(","))
+    assert height <= 2048 and width == height, (width, height)  # capped at one value v: (min(4096, v), min(2048, v))
+    scene = scenes()["multiplane_projection"]
+    cpu = bool(runtime.device.type & cl.device_type.CPU)
+
+    def host_bytes(size) -> int:
+        return sum(a.total for a in scene.simulation.allocations(scene.params(face_resolution=size)) if a.host or cpu)
+
+    assert host_bytes((width, height)) <= 64 << 20 < host_bytes((width + 1, height + 1))

@@ -93,21 +93,28 @@ def check(simulation, params, device: cl.Device) -> None:
     value = getattr(params, bad.param)
     field = next(f for f in dataclasses.fields(params) if f.name == bad.param)
     lo = field.metadata.get("lo") or 0
+    sides = isinstance(value, tuple)  # a size of several sides (width, height): every side capped at v
+
+    def sized(v: int):
+        return tuple(min(side, v) for side in value) if sides else v
 
     def fits(v: int) -> bool:
         try:
-            candidate = params.replace(**{bad.param: v})
+            candidate = params.replace(**{bad.param: sized(v)})
         except ValueError:  # a cross-field limit of Params: not a value the user could take either
             return False
         return problem(simulation.allocations(candidate), device)[0] is None
 
     best = None
-    low, high = lo, value - 1  # bisection: sizes grow with the parameter
+    low, high = lo, (max(value) if sides else value) - 1  # bisection: sizes grow with the parameter
     while low <= high:
         mid = (low + high) // 2
         if fits(mid):
             best, low = mid, mid + 1
         else:
             high = mid - 1
-    largest = f"the largest {bad.param} it takes is {best}" if best is not None else f"no {bad.param} fits"
-    raise ResourceError(f"{bad.param}={value} needs {need} on {device.name.strip()}; {largest}")
+    shown = lambda v: ",".join(map(str, v)) if sides else str(v)  # noqa: E731 - as --set takes it
+    largest = (
+        f"the largest {bad.param} it takes is {shown(sized(best))}" if best is not None else f"no {bad.param} fits"
+    )
+    raise ResourceError(f"{bad.param}={shown(value)} needs {need} on {device.name.strip()}; {largest}")

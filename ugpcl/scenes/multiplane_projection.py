@@ -37,6 +37,7 @@ from ..geometry.multiplane_projection import (
     world_record,
     world_shapes,
 )
+from ..resources import Allocation
 from ..scene import Animation, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
@@ -91,6 +92,18 @@ class Simulation(BaseSimulation):
     """The room's face cameras for the current eye; face images and eye views rendered on demand."""
 
     Params = Params
+
+    @classmethod
+    def allocations(cls, params: Params) -> list[Allocation]:
+        """The faces' images (RGBA8) and the eye's two, on the device and read back for the state."""
+        (width, height), (view_width, view_height) = params.face_resolution, params.view_resolution
+        faces = params.faces * width * height * 4
+        views = view_width * view_height * 4
+        return [
+            Allocation("face images", faces, "face_resolution"),
+            Allocation("view image", views, "view_resolution", count=2),
+            Allocation("face images read back (host)", faces, "face_resolution", host=True),
+        ]
 
     def _reset(self) -> None:
         p, rt = self.params, self.runtime
