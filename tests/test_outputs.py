@@ -211,6 +211,18 @@ def test_usage_errors_are_two_lines(capsys, argv, error):
     assert len(err.splitlines()) == 2 and err.startswith("usage: ugpcl") and "--help" in err.splitlines()[0]
 
 
+def test_the_viewers_usage_errors_are_two_lines(capsys):
+    from ugpcl.viewer.app import main as view
+
+    with pytest.raises(SystemExit) as exit_:
+        view(["boids", "--sizee", "3"])
+    err = capsys.readouterr().err
+    assert exit_.value.code == 2 and err.splitlines() == [
+        "usage: ugpcl-view ... (see ugpcl-view --help)",
+        "ugpcl-view: error: unrecognized arguments: --sizee 3",
+    ], err
+
+
 # }}}
 
 # {{{ two runs, one --out; Ctrl-C while the PNG is written

@@ -10,7 +10,6 @@ starts at its ``Scene.interactive`` sizes, so that it runs at interactive rates;
 
 from __future__ import annotations
 
-import argparse
 import ctypes
 import os
 import sys
@@ -23,7 +22,7 @@ from imgui_bundle import imgui
 
 from ugpcl import resources
 from ugpcl.io import UsageError, written_whole
-from ugpcl.options import HelpFormatter, parse_sets, parse_size, quiet_broken_pipe, scene_named
+from ugpcl.options import ArgumentParser, HelpFormatter, parse_sets, parse_size, quiet_broken_pipe, scene_named
 from ugpcl.run import Diverged, Watch
 from ugpcl.runtime import BuildError, DeviceError, Runtime
 from ugpcl.scene import show_value
@@ -429,7 +428,7 @@ class ViewerWindow(mglw.WindowConfig):
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="ugpcl-view", description="Watch a scene in a window.", formatter_class=HelpFormatter, allow_abbrev=False
     )
     parser.add_argument("scene")
