@@ -86,10 +86,7 @@ def gl_context(runtime):
 
 @pytest.fixture
 def gl(gl_context):
-    """The GL context, made current, with no GL error before or after the test. A test before this one may have
-    made and released a context of its own (a ``--png`` run through ``ugpcl.cli.main``): GL calls go to whichever
-    context is current, and with none they fail with GL_INVALID_OPERATION."""
-    gl_context.__enter__()  # current from here on; not exited: the context before it may be gone
+    """The GL context, with no GL error before or after the test."""
     assert gl_context.error == "GL_NO_ERROR"
     yield gl_context
     assert gl_context.error == "GL_NO_ERROR"
