@@ -723,3 +723,61 @@ def test_the_declared_file_limits_are_the_ones_checked():
     doc = field_docs(Params)["input"]
     assert f"At most {eci.MAX_FILE_BYTES >> 20} MiB and {eci.MAX_VERTICES} points" in doc, doc
     assert f"<= 1e{round(math.log10(eci.COORD_LIMIT))}" in doc, doc
+
+
+# {{{ a result that falls short is never silent
+
+
+THREE_HOLES = {  # the outline: the book's bridging runs out of ears on it
+    "rings": [
+        [[0, 0], [0, 3], [8, 3], [8, 0]],
+        [[0.3, 1], [0.3, 1.5], [1.8, 1.5], [1.8, 1]],
+        [[3.6, 1], [3.6, 1.5], [4.1, 1.5], [4.1, 1]],
+        [[4.2, 1], [4.2, 1.5], [4.6, 1.5], [4.6, 1]],
+    ]
+}
+
+
+def test_nesting_levels_come_from_the_rings_alone():
+    outer = [[0, 0], [0, 10], [10, 10], [10, 0]]
+    hole = [[2, 2], [2, 8], [8, 8], [8, 2]]
+    island = [[4, 4], [4, 6], [6, 6], [6, 4]]
+    beside = [[20, 0], [20, 1], [21, 1], [21, 0]]
+    assert ec.nesting_levels([island, outer, beside, hole]) == [2, 0, 0, 1]
+
+
+@pytest.mark.parametrize("strict", [False, True])
+def test_an_incomplete_triangulation_says_so_in_one_line(runtime, capsys, tmp_path, strict):
+    from ugpcl.cli import main
+
+    rings = tmp_path / "h3.json"
+    rings.write_text(json.dumps(THREE_HOLES))
+    out = tmp_path / "h3.npz"
+    # variant=book: the book's bridging, which runs out of ears on this outline (the first example)
+    argv = ["run", "ear_clipping", "--steps", "1", "--quiet", "--set", f"input={rings}", "variant=book"]
+    argv += ["--out", str(out)]
+    code = main(argv + (["--strict"] if strict else []))
+    err = capsys.readouterr().err.strip().splitlines()
+    with np.load(out) as data:
+        area_input, area_output, deviation = (float(data[k]) for k in ("area_input", "area_output", "deviation"))
+    expected = 8 * 3 - 1.5 * 0.5 - 0.5 * 0.5 - 0.4 * 0.5  # the outer rectangle less its three holes: 22.8
+    assert area_input == pytest.approx(expected, rel=1e-12)
+    assert deviation == pytest.approx((expected - area_output) / expected, rel=1e-9) and deviation > 0.01
+    kind = "error" if strict else "warning"
+    assert code == (1 if strict else 0) and len(err) == 2, err  # the device line, then the one line
+    assert (
+        err[1].startswith(f"ugpcl: {kind}: ear_clipping: triangulation incomplete") and "of the input's 22.8" in err[1]
+    )
+
+
+def test_a_complete_triangulation_is_silent_with_no_deviation(runtime, capsys, tmp_path):
+    from ugpcl.cli import main
+
+    code = main(["run", "ear_clipping", "--steps", "1", "--quiet", "--strict", "--out", str(tmp_path / "n.npz")])
+    err = capsys.readouterr().err.strip().splitlines()
+    with np.load(tmp_path / "n.npz") as data:
+        assert bool(data["complete"].all()) and abs(float(data["deviation"])) < 1e-9
+    assert code == 0 and len(err) == 1, err
+
+
+# }}}

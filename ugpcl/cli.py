@@ -224,6 +224,10 @@ def cmd_run(args) -> int:
     for path in (mesh, png):
         if path:
             print(f"wrote {path} ({outputs.sizes[path]} bytes)")
+    short = sim.incomplete()
+    if short:  # written as asked, and said: a result that falls short is never silent
+        print(f"ugpcl: {'error' if args.strict else 'warning'}: {scene.name}: {short}", file=sys.stderr)
+        return RUNTIME_ERROR if args.strict else 0
     return 0
 
 
@@ -371,6 +375,12 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         metavar="FILE",
         help="go on from a checkpoint or earlier --out of a scene that can resume: --steps more steps",
+    )
+    p.add_argument(
+        "--strict",
+        action="store_true",
+        help="exit 1 when the scene's result falls short of what was asked (ear clipping that leaves input area "
+        "uncovered); without it that is a one-line warning on stderr",
     )
     p.add_argument(
         "--keep-diverged",

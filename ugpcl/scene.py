@@ -322,6 +322,12 @@ class Simulation:
     def stats(self) -> dict[str, Any]:
         return {"steps": self.steps, "time": self.time}
 
+    def incomplete(self) -> str:
+        """Why the result falls short of what was asked, in one line ('' when it does not): a chapter whose
+        algorithm can give up part-way (ear clipping that runs out of ears) says so here, and ``ugpcl run`` prints it
+        as a warning (``--strict``: exit 1)."""
+        return ""
+
     def restore(self, state: dict[str, np.ndarray]) -> None:
         """Put a ``state()`` back on the device after ``reset()`` (``ugpcl run --resume``). A scene that can resume
         overrides this; its ``state()`` must then hold everything a step reads."""

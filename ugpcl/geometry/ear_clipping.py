@@ -709,6 +709,16 @@ def triangulate(rings, variant: str = "fixed", record: bool = False) -> Triangul
     )
 
 
+def nesting_levels(rings) -> list[int]:
+    """How many other rings enclose each ring, from the rings alone (one vertex of each, tested against every other
+    ring): the input's own nesting, independent of the clipper's tree. Rings must not touch (the input check)."""
+    arrays = [np.asarray(r, float) for r in rings]
+    return [
+        sum(point_in_polygon(other, ring[0]) for j, other in enumerate(arrays) if j != i)
+        for i, ring in enumerate(arrays)
+    ]
+
+
 def input_area(rings, levels) -> float:
     """|outer| - |holes| + |islands| ...: the area the triangles must cover."""
     return float(

@@ -168,8 +168,9 @@ class Simulation(BaseSimulation):
             "input_ring_offsets": offsets,
             "tree_parent": r.tree_parent,
             "tree_level": r.tree_level,
-            "area_input": np.float64(ec.input_area(self.rings, r.tree_level)),
-            "area_output": np.float64(np.abs(ec.triangle_signed_areas(r.vertices, self.triangles)).sum()),
+            "area_input": np.float64(self.area_input),
+            "area_output": np.float64(self.area_output),
+            "deviation": np.float64(self.deviation),
             "clips": np.int32(self.clips),
         }
         if self.params.delaunay:
@@ -192,9 +193,41 @@ class Simulation(BaseSimulation):
             "vertices": len(r.vertices),
             "triangles": len(self.triangles),
             "complete": bool(r.complete.all()),
+            "deviation": self.deviation,
             "dropped holes": len(r.dropped),
             "clips shown": self.clips,
         }
+
+    @property
+    def area_input(self) -> float:
+        """|outer| - |holes| + |islands| ..., nested as the input rings alone say (not as the clipper's tree)."""
+        return ec.input_area(self.rings, [level + 1 for level in ec.nesting_levels(self.rings)])
+
+    @property
+    def area_output(self) -> float:
+        return float(np.abs(ec.triangle_signed_areas(self.result.vertices, self.triangles)).sum())
+
+    @property
+    def deviation(self) -> float:
+        """(input area - triangles' area) / input area: the share of the input left uncovered (< 0: covered twice)."""
+        wanted = self.area_input
+        return (wanted - self.area_output) / wanted if wanted else 0.0
+
+    def incomplete(self) -> str:
+        r = self.result
+        failed, dropped = int((~r.complete).sum()), len(r.dropped)
+        if not failed and not dropped and abs(self.deviation) <= 1e-9:
+            return ""
+        why = []
+        if failed:
+            why.append(f"{failed} of {len(r.complete)} polygons ran out of ears")
+        if dropped:
+            why.append(f"{dropped} holes were dropped")
+        return (
+            f"triangulation incomplete: {', '.join(why) or 'the triangles do not match the input'}; the triangles "
+            f"cover {self.area_output:.6g} of the input's {self.area_input:.6g} ({100 * self.deviation:.3g} % "
+            "uncovered)"
+        )
 
     def mesh(self) -> Mesh:
         """The triangles as a flat mesh at z = 0, facing +z: the book's clockwise triangles (Unity, left-handed,
