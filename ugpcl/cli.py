@@ -256,8 +256,6 @@ def cmd_sweep(args) -> int:
     output_path(str(out / INDEX), "--out", (".csv",))
     common = {"steps": args.steps, "dt": dt, "png_size": parse_size(args.png_size), "device": args.device}
     jobs = plan(scene, grid, sets, seeds, out, args.png, mesh_suffix, **common)
-    where = args.scheduler or "a local cluster"
-    print(f"ugpcl: sweep {scene.name}: {len(jobs)} runs on {where}", file=sys.stderr)
     args.outputs = Tally(out / INDEX)  # what a stopped sweep says it wrote
     tally = sweep(jobs, out, args.scheduler, args.device, args.quiet, args.outputs)
     print(f"{out / INDEX}: {tally.ok} ok, {tally.failed} failed, {tally.skipped} finished before")

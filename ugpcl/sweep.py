@@ -323,6 +323,10 @@ def sweep(
     index = out / INDEX
     tally = tally or Tally(index)
     earlier = read_index(index)
+    if scheduler:
+        check_scheduler(scheduler)
+    # announced once the index and the scheduler are known good: a bad one is the only line
+    print(f"ugpcl: sweep {jobs[0].scene}: {len(jobs)} runs on {scheduler or 'a local cluster'}", file=sys.stderr)
     rows = {job.name: earlier[job.name] for job in jobs if finished(job, earlier.get(job.name))}
     todo = [job for job in jobs if job.name not in rows]
     tally.skipped = len(rows)
@@ -331,7 +335,6 @@ def sweep(
         return tally
     logging.getLogger("distributed").setLevel(logging.CRITICAL)  # a lost worker is a failed row, not log lines
     if scheduler:
-        check_scheduler(scheduler)
         cluster, client = None, Client(scheduler, timeout="20s")
         try:
             client.wait_for_workers(1, timeout=WORKERS_SECONDS)
