@@ -14,6 +14,9 @@ from __future__ import annotations
 import math
 import os
 import re
+import sys
+import warnings
+from contextlib import contextmanager
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -426,6 +429,26 @@ ZERO_FILL_PIECE = 1 << 30
 """Bytes per enqueue_fill_buffer in Runtime.zeros (below NVIDIA's 2 GiB fill limit)."""
 
 
+@contextmanager
+def _compiler_quiet():
+    """A build's remarks kept off stderr: PyOpenCL's CompilerWarning for any compiler output and what PoCL's clang
+    prints itself ("1 warning generated."), so that a run's stderr holds its own lines. A failed build still says
+    why (its log is in the error); PYOPENCL_COMPILER_OUTPUT=1 shows everything."""
+    if os.environ.get("PYOPENCL_COMPILER_OUTPUT"):
+        yield
+        return
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "w") as null, warnings.catch_warnings():
+            warnings.simplefilter("ignore", cl.CompilerWarning)
+            os.dup2(null.fileno(), 2)
+            yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
 class Runtime:
     """A context and an in-order queue on one device, plus the program cache."""
 
@@ -516,7 +539,8 @@ class Runtime:
         source = inline_headers(text, name)
         options = [ARG_INFO] + [f"-D{k}={_format_define(v)}" for k, v in sorted(defines.items())]
         try:
-            program = cl.Program(self.context, source).build(options=options)
+            with _compiler_quiet():
+                program = cl.Program(self.context, source).build(options=options)
         except cl.RuntimeError as err:
             raise BuildError(f"{name}: build failed on {self.label} with {' '.join(options[1:])}\n{err}") from None
         return Program(self, program, KERNEL_DIR / name, options)
