@@ -257,6 +257,7 @@ class Kernel:
 
     def __init__(self, runtime: Runtime, kernel: cl.Kernel, name: str):
         self.runtime, self.cl, self.name = runtime, kernel, name
+        self._queue = runtime.queue
         self.num_args = kernel.num_args
         self._given: list = [_UNSET] * self.num_args  # the object each argument was last set from
         self._set_bytes = getattr(kernel, "_set_arg_buf", kernel.set_arg)  # PyOpenCL's own invokers use it
@@ -268,15 +269,21 @@ class Kernel:
     def __call__(self, global_size, local_size, *args) -> cl.Event:
         if len(args) != self.num_args:
             raise self._count_error(args)
-        given = self._given
-        for i, arg in enumerate(args):
+        given, exact = self._given, self._exact
+        i = 0
+        for arg in args:
             if arg is not given[i]:  # the same object as last time (a kept buffer, a reused scalar) is already set
-                self._set(i, arg)
+                if type(arg) is exact[i]:  # a numpy scalar of exactly the declared type: its bytes, unchecked
+                    self._set_bytes(i, arg)
+                    given[i] = arg
+                else:
+                    self._set(i, arg)
+            i += 1
         if type(global_size) is int:
             global_size = (global_size,)
         if type(local_size) is int:
             local_size = (local_size,)
-        return cl.enqueue_nd_range_kernel(self.runtime.queue, self.cl, global_size, local_size)
+        return _enqueue(self._queue, self.cl, global_size, local_size)
 
     def over(self, shape, group, *args) -> cl.Event | None:
         """``shape`` work-items (an int, or a 2- or 3-tuple) in work-groups of ``group`` (of the same rank, halved
@@ -310,14 +317,11 @@ class Kernel:
         return fitted_shape(wanted, self.runtime.device, self.work_group_size())
 
     def _set(self, i: int, arg) -> None:
-        if type(arg) is self._exact[i]:  # a numpy scalar of exactly the declared type: its bytes, unchecked
-            self._set_bytes(i, arg)
+        a = self.args[i]
+        if a.kind == "scalar" or a.kind == "bytes":
+            self._set_bytes(i, self._scalar(a, arg))
         else:
-            a = self.args[i]
-            if a.kind == "scalar" or a.kind == "bytes":
-                self._set_bytes(i, self._scalar(a, arg))
-            else:
-                self.cl.set_arg(i, self._object(a, arg))
+            self.cl.set_arg(i, self._object(a, arg))
         self._given[i] = arg
 
     def _count_error(self, args) -> LaunchError:
@@ -369,6 +373,8 @@ class Kernel:
 
 _UNSET = object()
 """A kept argument that was never set: equal to nothing."""
+
+_enqueue = cl.enqueue_nd_range_kernel  # looked up once: Kernel.__call__ is the hot path of every step
 
 
 # }}}

@@ -14,13 +14,17 @@ from dataclasses import dataclass
 
 
 def bench_launch(runtime, sizes=None) -> list[dict]:
-    """Host cost of one kernel launch (LaunchProbe: 3 buffers, 4 scalars, 256 work-items, two scalars new each
-    launch), per way of launching: PyOpenCL's plain call `kernel(queue, gsize, lsize, *args)` (sets every argument
-    every time); a bare `enqueue_nd_range_kernel` with the arguments set once (the floor: nothing set); the same
-    after setting the two new scalars from their bytes (the floor of a launch that changes them); and ugpcl's
-    launch path (runtime.Kernel: the declaration checked, unchanged objects not set again, numpy scalars of the
-    declared type set from their bytes). host us/launch: time to enqueue; us/launch: with the device's work, the
-    queue finished at the end of each batch; x bare and x bare + set: host time against those two floors."""
+    """Host cost of one kernel launch (LaunchProbe: 3 buffers, 4 scalars, 256 work-items), each way of launching
+    beside the bare PyOpenCL floor that does the same work: a launch whose arguments are all the objects of the
+    last one against a bare ``enqueue_nd_range_kernel`` (nothing set), a launch with two new numpy scalars against
+    the bare enqueue after setting those two from their bytes; PyOpenCL's plain call ``kernel(queue, gsize, lsize,
+    *args)`` (every argument set every time) for scale. ugpcl's launch path is ``runtime.Kernel``: the declaration
+    checked, unchanged objects not set again, scalars of the declared type set from their bytes.
+
+    host us/launch: time to enqueue with the device held back (the batch waits on a user event, so the runtime's
+    own threads do not share the host's cores while it is timed); us/launch: enqueued with the device running and
+    finished at the end of the batch; x floor: host time against the bare way doing the same work; x bare enqueue:
+    against the bare enqueue that sets nothing. Best of seven batches of 2,000, the ways taken in turn."""
     import numpy as np
     import pyopencl as cl
 
@@ -30,6 +34,7 @@ def bench_launch(runtime, sizes=None) -> list[dict]:
     wrapper = runtime.program("probes").kernel("LaunchProbe")
     plain = cl.Kernel(wrapper.cl.program, "LaunchProbe")  # a second cl.Kernel: its arguments are its own
     fixed = (a.data, b.data, out.data, np.int32(n), np.float32(2.0))
+    kept = (*fixed, np.float32(0.0), np.int32(0))
     set_bytes = getattr(plain, "_set_arg_buf", plain.set_arg)
 
     def plain_call(i):
@@ -38,44 +43,57 @@ def bench_launch(runtime, sizes=None) -> list[dict]:
     def bare_enqueue(i):
         cl.enqueue_nd_range_kernel(queue, plain, (n,), None)
 
+    def launch_same(i):
+        wrapper((n,), None, *kept)
+
     def bare_set_enqueue(i):
         set_bytes(5, np.float32(i))
         set_bytes(6, np.int32(0))
         cl.enqueue_nd_range_kernel(queue, plain, (n,), None)
 
-    def launch_path(i):
+    def launch_new(i):
         wrapper((n,), None, *fixed, np.float32(i), np.int32(0))
 
-    ways = (
-        ("plain call", plain_call),
-        ("bare enqueue", bare_enqueue),
-        ("bare + set 2 scalars", bare_set_enqueue),
-        ("launch path", launch_path),
+    ways = (  # name, launch, the bare way doing the same work
+        ("bare enqueue", bare_enqueue, "bare enqueue"),
+        ("launch path, same arguments", launch_same, "bare enqueue"),
+        ("bare + set 2 new scalars", bare_set_enqueue, "bare + set 2 new scalars"),
+        ("launch path, 2 new scalars", launch_new, "bare + set 2 new scalars"),
+        ("plain call, 2 new scalars", plain_call, "bare + set 2 new scalars"),
     )
-    host = {name: [] for name, _ in ways}
-    total = {name: [] for name, _ in ways}
-    # The best of seven batches per way, the ways taken in turn: on a CPU device the runtime's own threads share the
-    # cores with this one, and taking the ways in turn gives each the same share of that disturbance.
+
+    def timed(launch, held: bool) -> tuple[float, float]:
+        plain.set_args(*kept)
+        queue.finish()
+        gate = cl.UserEvent(runtime.context) if held else None
+        if gate is not None:
+            cl.enqueue_marker(queue, wait_for=[gate])
+        start = time.perf_counter()
+        for i in range(batch):
+            launch(i)
+        enqueued = time.perf_counter()
+        if gate is not None:
+            gate.set_status(cl.command_execution_status.COMPLETE)
+        queue.finish()
+        return enqueued - start, time.perf_counter() - start
+
+    host = {name: [] for name, _, _ in ways}
+    total = {name: [] for name, _, _ in ways}
     for _ in range(7):
-        for name, launch in ways:
-            plain.set_args(*fixed, np.float32(0.0), np.int32(0))
-            queue.finish()
-            start = time.perf_counter()
-            for i in range(batch):
-                launch(i)
-            enqueued = time.perf_counter()
-            queue.finish()
-            host[name].append((enqueued - start) / batch)
-            total[name].append((time.perf_counter() - start) / batch)
-    rows = [
-        {"launch": name, "host us/launch": min(host[name]) * 1e6, "us/launch": min(total[name]) * 1e6}
-        for name, _ in ways
+        for name, launch, _ in ways:
+            host[name].append(timed(launch, held=True)[0] / batch)
+            total[name].append(timed(launch, held=False)[1] / batch)
+    best = {name: min(host[name]) * 1e6 for name in host}
+    return [
+        {
+            "launch": name,
+            "host us/launch": best[name],
+            "us/launch": min(total[name]) * 1e6,
+            "x floor": best[name] / best[floor],
+            "x bare enqueue": best[name] / best["bare enqueue"],
+        }
+        for name, _, floor in ways
     ]
-    bare, bare_set = rows[1]["host us/launch"], rows[2]["host us/launch"]
-    for row in rows:
-        row["x bare"] = row["host us/launch"] / bare
-        row["x bare + set"] = row["host us/launch"] / bare_set
-    return rows
 
 
 # {{{ the device's limits
