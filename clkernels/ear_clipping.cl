@@ -7,16 +7,22 @@
 //                   first FIFO ear list), then EarClipping (emit the head ear's (prev, ear, next), unlink it,
 //                   CheckVertex on both neighbours) until 3 vertices are left or the ear list runs dry
 // Build defines: MAX_VERTICES = the most vertices one polygon may have (ugpcl: 64); the index ring and the ear list
-// live in private arrays of that length.
+// live in private arrays of that length. ROBUST = 1 for the robust default's clipper (not in the book; the host's
+// EarClipper(robust=True)): a vertex at an ear's corner blocks it when the ring enters the triangle there, and
+// vertices where the ring turns back on itself (spike tips, repeated points) are dropped without a triangle.
 // Input: polygons that are already simple and clockwise (y up), holes bridged in by the host (CombinePolygon).
 // Output: polygon i writes its triangles from row offsets[i] - 2 i (n - 2 rows at most), as indices into points;
-// triangle_counts[i] = rows written (n - 2 when complete, fewer if the ear list ran dry, 0 for n < 3 or too large).
+// triangle_counts[i] = rows written (n - 2 when complete, fewer if the ear list ran dry or, ROBUST, flat vertices
+// were dropped; 0 for n < 3 or too large); finished[i] = 1 when the polygon is covered (the last triangle is out).
 // Atomics: none. Races: none (every work-item writes only its own rows).
 // Differences from the book: none in the arithmetic. It is float64 with FP_CONTRACT off, so every orientation sign
 // is the host's bit for bit and both give the same triangles in the same order (tests/test_ear_clipping.py).
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 #pragma OPENCL FP_CONTRACT OFF  // a fused a*b - c*d would round differently from the host's numpy
 
+#ifndef ROBUST
+#define ROBUST 0
+#endif
 #ifndef MAX_VERTICES
 #error "build with -D MAX_VERTICES=<largest polygon, at most 256>"
 #endif
@@ -36,24 +42,70 @@ inline bool right_of(double2 o, double2 p1, double2 p2) {
 
 inline bool same_point(double2 a, double2 b) { return a.x == b.x && a.y == b.y; }
 
+inline double cross2(double2 u, double2 w) { return u.x * w.y - u.y * w.x; }
+
+#if ROBUST
+// The pre-pass's in_cone, for this clockwise ring read backwards (region on the left): `target` seen from `at`
+// lies strictly inside the region's angle between the ring's neighbours `before` and `after`.
+inline bool in_cone(double2 before, double2 at, double2 after, double2 target) {
+    const double2 prev = after, nxt = before;  // backwards
+    if (cross2(at - prev, nxt - prev) > 0.0)
+        return cross2(target - at, prev - at) > 0.0 && cross2(at - target, nxt - target) > 0.0;
+    return !(cross2(target - at, nxt - at) >= 0.0 && cross2(at - target, prev - target) >= 0.0);
+}
+
+// EarClipper.corner_blocks: vertex k at the coordinates of corner `corner` of the clockwise triangle
+// (corner, after, before) blocks the ear when the new edge does not leave the corner inside its own angle, or one
+// of k's edges goes into the triangle's open angle there.
+inline bool corner_blocks(const __global double2* pts, const uchar* prev, const uchar* next, int k, int corner,
+                          int after, int before, int v, int p, int q) {
+    const double2 at = pts[corner];
+    if (corner != v) {
+        const int target = corner == p ? q : p;
+        const double2 b0 = pts[prev[corner]], a0 = pts[next[corner]];
+        if (same_point(b0, at) || same_point(a0, at) || !in_cone(b0, at, a0, pts[target])) return true;
+    }
+    const double2 u = pts[after] - at, w = at - pts[before];
+    const double2 d1 = pts[prev[k]] - at, d2 = pts[next[k]] - at;
+    return (cross2(u, d1) < 0.0 && cross2(w, d1) < 0.0) || (cross2(u, d2) < 0.0 && cross2(w, d2) < 0.0);
+}
+#endif
+
 // The ear test of CheckVertex: -1 reflex; 0 convex but another live vertex lies in or on the triangle
-// (prev, v, next); 1 an ear. Vertices at a corner's coordinates (bridge copies) do not block, as in the book.
+// (prev, v, next); 1 an ear. Vertices at a corner's coordinates (bridge copies) do not block, as in the book
+// (ROBUST: unless corner_blocks).
 inline int ear_state(const __global double2* pts, const uchar* prev, const uchar* next, int v) {
     const int p = prev[v], q = next[v];
     const double2 a = pts[p], b = pts[v], c = pts[q];
     if (!is_convex(b, a, c)) return -1;
     for (int k = next[q]; k != p; k = next[k]) {  // every live vertex but p, v, q
         const double2 o = pts[k];
+        if (!(right_of(o, b, c) && right_of(o, c, a) && right_of(o, a, b))) continue;  // IsInTriangle > 0
+#if ROBUST
+        if (same_point(o, a)) { if (corner_blocks(pts, prev, next, k, p, v, q, v, p, q)) return 0; continue; }
+        if (same_point(o, b)) { if (corner_blocks(pts, prev, next, k, v, q, p, v, p, q)) return 0; continue; }
+        if (same_point(o, c)) { if (corner_blocks(pts, prev, next, k, q, p, v, v, p, q)) return 0; continue; }
+#else
         if (same_point(o, a) || same_point(o, b) || same_point(o, c)) continue;
-        if (right_of(o, b, c) && right_of(o, c, a) && right_of(o, a, b)) return 0;  // IsInTriangle <= 0
+#endif
+        return 0;
     }
     return 1;
 }
 
+#if ROBUST
+// EarClipper._flat: the ring turns back on itself at v (a spike's tip, a repeated point); straight: or runs on
+inline bool flat(const __global double2* pts, const uchar* prev, const uchar* next, int v, bool straight) {
+    const double2 a = pts[prev[v]], b = pts[v], c = pts[next[v]];
+    return cross2(b - a, c - a) == 0.0 && (straight || dot(a - b, c - b) >= 0.0);
+}
+#endif
+
 // CheckVertex: a convex vertex joins the end of the ear list or leaves it (in place); a reflex one changes nothing
 inline void check_vertex(const __global double2* pts, const uchar* prev, const uchar* next, uchar* ears,
                          int* ear_count, bool* listed, int v) {
-    const int state = ear_state(pts, prev, next, v);
+    int state = ear_state(pts, prev, next, v);
+    if (ROBUST && state == -1) state = 0;  // no longer convex: it leaves the list (the book keeps it)
     if (state == 1 && !listed[v]) {
         ears[(*ear_count)++] = (uchar)v;
         listed[v] = true;
@@ -66,8 +118,24 @@ inline void check_vertex(const __global double2* pts, const uchar* prev, const u
     }
 }
 
+// Unlink v from the ring and the ear list (EarClipper._remove)
+inline void remove_vertex(uchar* prev, uchar* next, uchar* ears, int* ear_count, bool* listed, bool* alive,
+                          int* count, int v) {
+    if (listed[v]) {
+        int k = 0;
+        while (ears[k] != v) k++;
+        for (; k + 1 < *ear_count; k++) ears[k] = ears[k + 1];
+        (*ear_count)--;
+        listed[v] = false;
+    }
+    next[prev[v]] = next[v];
+    prev[next[v]] = prev[v];
+    alive[v] = false;
+    (*count)--;
+}
+
 __kernel void EarClipping(const __global double2* points, const __global int* offsets, __global int* triangles,
-                          __global int* triangle_counts, const int polygon_count) {
+                          __global int* triangle_counts, __global uchar* finished, const int polygon_count) {
     const int i = get_global_id(0);
     if (i >= polygon_count) return;  // no barriers: padding work-items just leave
     const int first = offsets[i];
@@ -75,34 +143,71 @@ __kernel void EarClipping(const __global double2* points, const __global int* of
     const __global double2* pts = points + first;
     __global int* out = triangles + 3 * (first - 2 * i);  // n - 2 rows per polygon before this one
     int emitted = 0;
+    bool done = false;
     if (n >= 3 && n <= MAX_VERTICES) {
         uchar prev[MAX_VERTICES], next[MAX_VERTICES], ears[MAX_VERTICES];  // LinkedList<int> indices, earTipList
-        bool listed[MAX_VERTICES];
+        bool listed[MAX_VERTICES], alive[MAX_VERTICES];
         int ear_count = 0, count = n;
         // InitializeVertices
         for (int v = 0; v < n; v++) {
             prev[v] = (uchar)(v == 0 ? n - 1 : v - 1);
             next[v] = (uchar)(v == n - 1 ? 0 : v + 1);
             listed[v] = false;
+            alive[v] = true;
         }
-        for (int v = 0; v < n; v++) check_vertex(pts, prev, next, ears, &ear_count, listed, v);
+#if ROBUST
+        for (bool changed = true; changed && count > 3;) {  // passes in index order until none is flat
+            changed = false;
+            for (int v = 0; v < n; v++) {
+                if (count > 3 && alive[v] && flat(pts, prev, next, v, false)) {
+                    remove_vertex(prev, next, ears, &ear_count, listed, alive, &count, v);
+                    changed = true;
+                }
+            }
+        }
+        int any = 0;
+        while (!alive[any]) any++;
+        done = count == 3 && flat(pts, prev, next, any, true);  // what is left covers nothing
+        if (!done)
+#endif
+            for (int v = 0; v < n; v++)
+                if (alive[v]) check_vertex(pts, prev, next, ears, &ear_count, listed, v);
         // EarClipping
         while (ear_count > 0) {
-            const int e = ears[0], p = prev[e], q = next[e];
+            const int e = ears[0];
+            int p = prev[e], q = next[e];
             out[3 * emitted + 0] = first + p;
             out[3 * emitted + 1] = first + e;
             out[3 * emitted + 2] = first + q;
             emitted++;
-            if (count == 3) break;  // the last triangle
-            for (int k = 0; k + 1 < ear_count; k++) ears[k] = ears[k + 1];  // pop the head
-            ear_count--;
-            listed[e] = false;
-            next[p] = (uchar)q;
-            prev[q] = (uchar)p;
-            count--;
+            if (count == 3) {  // the last triangle
+                done = true;
+                break;
+            }
+            remove_vertex(prev, next, ears, &ear_count, listed, alive, &count, e);
+#if ROBUST
+            while (count > 3) {  // the ring turning back on itself at p or q is dropped
+                int gone;
+                if (flat(pts, prev, next, p, false)) {
+                    gone = p;
+                    p = prev[p];
+                } else if (flat(pts, prev, next, q, false)) {
+                    gone = q;
+                    q = next[q];
+                } else {
+                    break;
+                }
+                remove_vertex(prev, next, ears, &ear_count, listed, alive, &count, gone);
+            }
+            if (count == 3 && flat(pts, prev, next, p, true)) {
+                done = true;
+                break;
+            }
+#endif
             check_vertex(pts, prev, next, ears, &ear_count, listed, p);
             check_vertex(pts, prev, next, ears, &ear_count, listed, q);
         }
     }
     triangle_counts[i] = emitted;
+    finished[i] = done;
 }

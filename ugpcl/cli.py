@@ -226,8 +226,9 @@ def cmd_run(args) -> int:
             print(f"wrote {path} ({outputs.sizes[path]} bytes)")
     short = sim.incomplete()
     if short:  # written as asked, and said: a result that falls short is never silent
-        print(f"ugpcl: {'error' if args.strict else 'warning'}: {scene.name}: {short}", file=sys.stderr)
-        return RUNTIME_ERROR if args.strict else 0
+        strict = args.strict or sim.strict
+        print(f"ugpcl: {'error' if strict else 'warning'}: {scene.name}: {short}", file=sys.stderr)
+        return RUNTIME_ERROR if strict else 0
     return 0
 
 

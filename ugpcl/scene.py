@@ -325,8 +325,13 @@ class Simulation:
     def incomplete(self) -> str:
         """Why the result falls short of what was asked, in one line ('' when it does not): a chapter whose
         algorithm can give up part-way (ear clipping that runs out of ears) says so here, and ``ugpcl run`` prints it
-        as a warning (``--strict``: exit 1)."""
+        as a warning (``--strict``, or the chapter's own ``strict`` parameter: exit 1)."""
         return ""
+
+    @property
+    def strict(self) -> bool:
+        """The chapter's own ``strict`` parameter where it has one: an incomplete result is then an error."""
+        return bool(getattr(self.params, "strict", False))
 
     def restore(self, state: dict[str, np.ndarray]) -> None:
         """Put a ``state()`` back on the device after ``reset()`` (``ugpcl run --resume``). A scene that can resume

@@ -332,13 +332,15 @@ class EarClipper:
     the z-order until they are short or provably far from the triangle. The vertices read are then tested with the
     same expressions as the book's scan over all of them, so the answer is the same."""
 
-    def __init__(self, points: np.ndarray):
+    def __init__(self, points: np.ndarray, robust: bool = False):
+        self.robust = robust
         self.points = np.asarray(points, np.float64).reshape(-1, 2)
         n = len(self.points)
         self.x, self.y = self.points[:, 0].tolist(), self.points[:, 1].tolist()
         self.prev = [(i - 1) % n for i in range(n)]
         self.next = [(i + 1) % n for i in range(n)]
         self.count = n
+        self.finished = False  # the last triangle is out
         self.ear_next, self.ear_prev = [n] * (n + 1), [n] * (n + 1)  # index n (or -1): the head/tail sentinel
         self.listed = [False] * n
         self._bucket()
@@ -392,9 +394,20 @@ class EarClipper:
         """InitializeVertices: the first ear list, vertices in ring order. Nothing is clipped yet, so the ear tests
         are independent: they run together (``initial_ears``) on all but small polygons."""
         n = len(self.points)
+        if self.robust:
+            changed = True
+            while changed and self.count > 3:  # passes in index order until none is flat (as the kernel does)
+                changed = False
+                for v in range(n):
+                    if self.count > 3 and self.z_alive[self.z_rank[v]] and self._flat(v):
+                        self._remove(v)
+                        changed = True
+            if self.count == 3 and self._flat(self.live_cycle()[0], straight=True):
+                self._finish()  # what is left covers nothing
+                return
         ears = self.initial_ears() if n >= BATCH_ABOVE and self.gridded else map(self.is_ear, range(n))
         for v, ear in enumerate(ears):
-            if ear:
+            if ear and self.z_alive[self.z_rank[v]]:
                 self._append(v)
 
     def initial_ears(self) -> list[bool | None]:
@@ -454,7 +467,7 @@ class EarClipper:
         pair = np.repeat(where, counts)
         rank = np.arange(counts.sum()) + np.repeat(first - np.cumsum(counts) + counts, counts)
         ox, oy, tri = self.z_x[rank], self.z_y[rank], t[pair]
-        inside = np.ones(len(rank), bool)
+        inside = self.z_alive[rank].copy()  # the robust clipper may have dropped flat vertices already
         corner = np.zeros(len(rank), bool)
         for p1, p2 in ((b, c), (c, a), (a, b)):
             (px, py), (qx, qy) = p1[tri].T, p2[tri].T
@@ -462,6 +475,9 @@ class EarClipper:
             corner |= (ox == px) & (oy == py)
         blocked = np.zeros(len(self.points), bool)
         blocked[tri[inside & ~corner]] = True
+        if self.robust:  # a vertex at a corner may block (corner_blocks): those triangles take the scalar test
+            batched = batched.copy()
+            batched[tri[inside & corner]] = False
         ears: list[bool | None] = [None] * len(self.points)
         for v in np.flatnonzero(convex).tolist():
             ears[v] = not blocked[v] if batched[v] else self.is_ear(v)
@@ -546,6 +562,7 @@ class EarClipper:
                     continue
             while rank < last:  # p, v, q themselves are skipped as corners
                 ox, oy = zx[rank], zy[rank]
+                here = rank
                 rank = rank + 1 if live[rank + 1] == rank + 1 else live_from(rank + 1)
                 if (
                     lox <= ox <= hix
@@ -553,10 +570,47 @@ class EarClipper:
                     and (ox - bx) * bcy - bcx * (oy - by) >= 0.0
                     and (ox - cx) * cay - cax * (oy - cy) >= 0.0
                     and (ox - ax) * aby - abx * (oy - ay) >= 0.0
-                    and (ox, oy) not in corners
                 ):
-                    return False
+                    if (ox, oy) not in corners:
+                        return False
+                    if self.robust and self.corner_blocks(self.z_order[here], p, v, q):
+                        return False
         return True
+
+    def corner_blocks(self, k: int, p: int, v: int, q: int) -> bool:
+        """The robust rule for a live vertex k at the coordinates of a corner of the ear (prev p, v, next q) and
+        not one of them (a bridge copy, a point the polygon visits twice): it blocks the ear when one of its edges
+        leaves that corner into the triangle's open angle there, that is, when the polygon's boundary enters the
+        triangle. The book lets every such vertex pass."""
+        if k in (p, v, q):
+            return False
+        x, y = self.x, self.y
+        triangle = ((p, v, q), (v, q, p), (q, p, v))  # clockwise: each corner with the one after and before it
+        for corner, after, before in triangle:
+            if x[corner] != x[k] or y[corner] != y[k]:
+                continue
+            if corner != v and not self._diagonal_inside(corner, q if corner == p else p):
+                return True
+            kx, ky = x[k], y[k]
+            ux, uy = x[after] - kx, y[after] - ky  # the triangle's angle at the corner: from `after` clockwise...
+            wx, wy = kx - x[before], ky - y[before]  # ... to `before` (the edge into the corner)
+            for n in (self.prev[k], self.next[k]):
+                dx, dy = x[n] - kx, y[n] - ky
+                if ux * dy - uy * dx < 0.0 and wx * dy - wy * dx < 0.0:  # right of both: inside the angle
+                    return True
+        return False
+
+    def _diagonal_inside(self, corner: int, target: int) -> bool:
+        """Where the polygon visits a point more than once, the new edge corner -> target must leave the corner
+        inside the region's own angle at that visit (exact signs; the region is on the right of this clockwise
+        ring, so the ring is read backwards for ``in_cone``)."""
+        from .ear_clipping_prepass import in_cone
+
+        pts = self.points
+        before, after = self.prev[corner], self.next[corner]
+        if any(np.array_equal(pts[n], pts[corner]) for n in (before, after)):
+            return False  # a zero-length edge: no angle to be inside of (the last-resort stage removes it)
+        return in_cone(pts[after], pts[corner], pts[before], pts[target])
 
     def _scan_all(self, p: int, v: int, q: int) -> bool:
         """The ear test over every live vertex (for sliver triangles and non-finite or huge coordinates)."""
@@ -571,7 +625,11 @@ class EarClipper:
         )
         for k in np.flatnonzero(inside).tolist():
             k = self.z_order[k]
-            if k not in (p, v, q) and (x[k], y[k]) not in ((ax, ay), (bx, by), (cx, cy)):
+            if k in (p, v, q):
+                continue
+            if (x[k], y[k]) not in ((ax, ay), (bx, by), (cx, cy)):
+                return False
+            if self.robust and self.corner_blocks(k, p, v, q):
                 return False
         return True
 
@@ -579,6 +637,8 @@ class EarClipper:
         """CheckVertex: a convex vertex becomes an ear (appended at the end) or stops being one (removed in place);
         a reflex vertex leaves the list as it is (the book's CheckVertex only acts on convex vertices)."""
         ear = self.is_ear(v)
+        if ear is None and self.robust:
+            ear = False  # no longer convex: it leaves the list (the book keeps it there, to be clipped flat)
         if ear is None or ear == self.listed[v]:
             return
         if ear:
@@ -596,6 +656,17 @@ class EarClipper:
         self.ear_next[before], self.ear_prev[after] = after, before
         self.listed[v] = False
 
+    def live_cycle(self) -> list[int]:
+        """The vertices not clipped yet, in ring order (empty once the last triangle is out)."""
+        if self.finished or self.count < 3:
+            return []
+        start = self.z_order[int(np.flatnonzero(self.z_alive)[0])]
+        cycle, v = [start], self.next[start]
+        while v != start:
+            cycle.append(v)
+            v = self.next[v]
+        return cycle
+
     def clip(self) -> tuple[int, int, int] | None:
         """One pass of EarClipping's loop: the head ear's triangle (prev, ear, next), or None when the list is empty.
         After the last triangle (3 vertices left) the ear list is cleared."""
@@ -604,18 +675,52 @@ class EarClipper:
             return None
         p, q = self.prev[e], self.next[e]
         if self.count == 3:
-            self.ear_next[-1] = self.ear_prev[-1] = len(self.listed)
-            self.listed = [False] * len(self.listed)
+            self._finish()
             return p, e, q
-        self._unlist(e)
+        self._remove(e)
+        triangle = p, e, q
+        if self.robust:
+            while self.count > 3:  # the robust filter: the ring turning back on itself at p or q is dropped
+                if self._flat(p):
+                    p, gone = self.prev[p], p
+                elif self._flat(q):
+                    q, gone = self.next[q], q
+                else:
+                    break
+                self._remove(gone)
+            if self.count == 3 and self._flat(p, straight=True):
+                self._finish()  # what is left covers nothing
+                return triangle
+        self.check_vertex(p)
+        self.check_vertex(q)
+        return triangle
+
+    def _remove(self, v: int) -> None:
+        """Unlink v from the ring (and the ear list) and the grid's live vertices."""
+        if self.listed[v]:
+            self._unlist(v)
+        p, q = self.prev[v], self.next[v]
         self.next[p], self.prev[q] = q, p
-        rank = self.z_rank[e]
+        rank = self.z_rank[v]
         self.z_alive[rank] = False
         self.z_live[rank] = rank + 1
         self.count -= 1
-        self.check_vertex(p)
-        self.check_vertex(q)
-        return p, e, q
+
+    def _flat(self, v: int, straight: bool = False) -> bool:
+        """The robust clipper's filter (not in the book): the ring turns back on itself at v (the tip of a zero-width
+        spike, a repeated point), so v covers nothing and is unlinked without a triangle. A part retraced both ways
+        once the area around it is clipped would otherwise pass ear tests it must not. A vertex on a straight run
+        is not flat (``straight``: it is, for the last three) and is clipped later, with a neighbour."""
+        from .exact import orient
+
+        a, b, c = self.points[self.prev[v]], self.points[v], self.points[self.next[v]]
+        return orient(a, b, c) == 0 and (straight or float(np.dot(a - b, c - b)) >= 0.0)
+
+    def _finish(self) -> None:
+        """The last triangle is out (or what is left covers nothing): the ear list is cleared."""
+        self.finished = True
+        self.ear_next[-1] = self.ear_prev[-1] = len(self.listed)
+        self.listed = [False] * len(self.listed)
 
 
 # }}}
@@ -650,10 +755,16 @@ class Triangulation:
     """Input rings (holes) that no bridge reached."""
     ear_trace: list[tuple[int, ...]] | None = None
     """Per triangle: the ear list (global vertex indices) when it was clipped, its head first (record=True)."""
+    altered: dict = field(default_factory=dict)
+    """What the robust pre-pass had to change in the input: {what: how many} (empty for the book's pipeline)."""
 
 
-def triangulate(rings, variant: str = "fixed", record: bool = False) -> Triangulation:
-    """Triangulate: build the tree, merge each outer ring with its holes, clip; grandchildren become new outers."""
+def triangulate(rings, variant: str = "robust", record: bool = False) -> Triangulation:
+    """Triangulate: build the tree, merge each outer ring with its holes, clip; grandchildren become new outers.
+    ``variant="robust"`` (the default) runs the pre-pass and the last-resort stage around the same clipper
+    (``triangulate_robust``); "fixed" and "book" are the chapter's pipeline."""
+    if variant == "robust":
+        return triangulate_robust(rings, record)
     rings = [np.asarray(r, np.float64).reshape(-1, 2) for r in rings]
     every = np.concatenate(rings) if rings else np.zeros((0, 2))
     lo, hi = (every.min(axis=0), every.max(axis=0)) if len(every) else (np.zeros(2), np.ones(2))
@@ -709,14 +820,146 @@ def triangulate(rings, variant: str = "fixed", record: bool = False) -> Triangul
     )
 
 
+def triangulate_robust(rings, record: bool = False) -> Triangulation:
+    """The robust default: ``ear_clipping_prepass.prepare`` (cleaned rings, touching points shared, rings split where
+    they touch themselves, exact nesting and bridges), then the chapter's clipper with the robust corner rule
+    (``EarClipper.corner_blocks``) and, should the ear list run dry, ``finish`` (the last-resort stage)."""
+    from .ear_clipping_prepass import prepare
+
+    rings = [np.asarray(r, np.float64).reshape(-1, 2) for r in rings]
+    prepared = prepare(rings)
+    every = np.concatenate(rings) if rings else np.zeros((0, 2))
+    lo, hi = (every.min(axis=0), every.max(axis=0)) if len(every) else (np.zeros(2), np.ones(2))
+    span = np.where(hi > lo, hi - lo, 1.0)
+    vertices, triangles, offsets, complete = [], [], [0], []
+    trace: list[tuple[int, ...]] | None = [] if record else None
+    for polygon in prepared.polygons:
+        offset = offsets[-1]
+        ears = [] if trace is not None else None
+        found, done = clip_robust(polygon, ears)
+        if trace is not None:
+            trace += [tuple(offset + e for e in listed) for listed in ears]
+        triangles += [[offset + v for v in t] for t in found]
+        vertices.append(polygon)
+        offsets.append(offset + len(polygon))
+        complete.append(done)
+    points = np.concatenate(vertices) if vertices else np.zeros((0, 2))
+    first_loop = {}
+    for k, ring in enumerate(prepared.loop_ring):
+        first_loop.setdefault(ring, k)
+    parent = np.full(len(rings), -1, np.int32)
+    level = np.zeros(len(rings), np.int32)
+    oriented = [np.zeros((0, 2))] * len(rings)
+    for ring, k in first_loop.items():
+        up = prepared.parent[k]
+        parent[ring] = prepared.loop_ring[up] if up >= 0 else -1
+        level[ring] = prepared.depth[k]
+        oriented[ring] = prepared.loops[k][::-1] if prepared.depth[k] % 2 else prepared.loops[k]
+    return Triangulation(
+        vertices=points,
+        triangles=np.asarray(triangles, np.int32).reshape(-1, 3),
+        uv=((points - lo) / span).astype(np.float32),
+        group_offsets=np.asarray(offsets, np.int32),
+        complete=np.asarray(complete, bool),
+        group_rings=[[prepared.loop_ring[k] for k in group] for group in prepared.group_loops],
+        tree_parent=parent,
+        tree_level=level,
+        oriented=oriented,
+        dropped=sorted({prepared.loop_ring[k] for k in prepared.lost}),
+        ear_trace=trace,
+        altered=prepared.notes,
+    )
+
+
+def clip_robust(polygon: np.ndarray, trace: list | None = None) -> tuple[list[tuple[int, int, int]], bool]:
+    """One merged polygon (clockwise, as ``prepare`` gives it) clipped by the robust clipper, ``finish`` taking over
+    where its ear list runs dry: (triangles as local indices, whether all of its area is covered). ``trace`` gets
+    the ear list before each clip."""
+    clipper = EarClipper(polygon, robust=True)
+    clipper.initialize_vertices()
+    found = []
+    while True:
+        if trace is not None and (ears := clipper.ears):
+            trace.append(tuple(ears))
+        triangle = clipper.clip()
+        if triangle is None:
+            break
+        found.append(triangle)
+    if clipper.finished:
+        return found, True
+    more, done = finish(polygon, clipper.live_cycle())
+    return found + more, done
+
+
+MAX_FINISH_DEPTH = 64
+"""How deep the last-resort stage may split a polygon that keeps running out of ears."""
+
+
+def finish(points: np.ndarray, cycle: list[int], depth: int = 0) -> tuple[list[tuple[int, int, int]], bool]:
+    """The last-resort stage, for the vertices ``cycle`` (ids into ``points``, clockwise) that the ear list left:
+    vertices with their neighbours on one line are dropped (they cover nothing), then the rest is split along a
+    diagonal that lies inside it and meets no edge (one exists in every simple polygon, exact signs find it) and
+    each half is clipped again. Returns (triangles, whether all of the area was covered)."""
+    from .ear_clipping_prepass import _blocked, in_cone
+    from .exact import orient
+
+    cycle = list(cycle)
+    changed = True
+    while changed and len(cycle) > 3:
+        changed = False
+        for i in range(len(cycle)):
+            a, b, c = points[cycle[i - 1]], points[cycle[i]], points[cycle[(i + 1) % len(cycle)]]
+            if orient(a, b, c) == 0:
+                del cycle[i]
+                changed = True
+                break
+    if len(cycle) < 3:
+        return [], True
+    if len(cycle) == 3:
+        a, b, c = (points[k] for k in cycle)
+        return ([tuple(cycle)] if orient(a, b, c) < 0 else []), orient(a, b, c) <= 0
+    # clockwise cycle: reversed, the region is on the left (the pre-pass's convention for in_cone)
+    ccw = cycle[::-1]
+    pts = points[ccw]
+    n = len(ccw)
+    a_edges, b_edges = pts, np.roll(pts, -1, axis=0)
+    if depth < MAX_FINISH_DEPTH:
+        for i in range(n):
+            others = sorted(range(n), key=lambda j: float(((pts[j] - pts[i]) ** 2).sum()))
+            for j in others:
+                if (j - i) % n in (0, 1, n - 1) or np.array_equal(pts[i], pts[j]):
+                    continue
+                if not in_cone(pts[i - 1], pts[i], pts[(i + 1) % n], pts[j]):
+                    continue
+                if not in_cone(pts[j - 1], pts[j], pts[(j + 1) % n], pts[i]):
+                    continue
+                if _blocked(pts[i], pts[j], a_edges, b_edges):
+                    continue
+                lo, hi = min(i, j), max(i, j)
+                first, second = ccw[lo : hi + 1], ccw[hi:] + ccw[: lo + 1]
+                found, done = [], True
+                for half in (first, second):
+                    clipper = EarClipper(points[half[::-1]], robust=True)
+                    clipper.initialize_vertices()
+                    ids = half[::-1]
+                    while (t := clipper.clip()) is not None:
+                        found.append(tuple(ids[k] for k in t))
+                    if not clipper.finished:
+                        more, ok = finish(points, [ids[k] for k in clipper.live_cycle()], depth + 1)
+                        found += more
+                        done &= ok
+                return found, done
+    return [], False
+
+
 def nesting_levels(rings) -> list[int]:
-    """How many other rings enclose each ring, from the rings alone (one vertex of each, tested against every other
-    ring): the input's own nesting, independent of the clipper's tree. Rings must not touch (the input check)."""
-    arrays = [np.asarray(r, float) for r in rings]
-    return [
-        sum(point_in_polygon(other, ring[0]) for j, other in enumerate(arrays) if j != i)
-        for i, ring in enumerate(arrays)
-    ]
+    """How many other rings enclose each ring, from the rings alone (each tested against every other by its first
+    vertex strictly inside or outside it, exact signs; ``ear_clipping_prepass.inside``): the input's own nesting,
+    independent of the clipper's tree. Rings may touch, not cross."""
+    from .ear_clipping_prepass import inside
+
+    arrays = [np.asarray(r, float).reshape(-1, 2) for r in rings]
+    return [sum(inside(ring, other) for j, other in enumerate(arrays) if j != i) for i, ring in enumerate(arrays)]
 
 
 def input_area(rings, levels) -> float:
@@ -732,8 +975,12 @@ def triangle_signed_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.nda
     return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
 
 
-def merged_polygons(rings, variant: str = "fixed") -> list[np.ndarray]:
+def merged_polygons(rings, variant: str = "robust") -> list[np.ndarray]:
     """The host's bridging without the clipping: one simple clockwise polygon per group (the batch kernel's input)."""
+    if variant == "robust":
+        from .ear_clipping_prepass import prepare
+
+        return prepare(rings).polygons
     result = triangulate(rings, variant)
     o = result.group_offsets
     return [result.vertices[o[g] : o[g + 1]] for g in range(len(o) - 1)]

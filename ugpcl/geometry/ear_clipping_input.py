@@ -14,11 +14,11 @@ import numpy as np
 from ..inputs import InputError, file_cached, read_json, shown
 from .ear_clipping import merged_polygons
 
-MAX_FILE_BYTES = 1 << 20
-"""Largest rings file (``input=``): 1 MiB, room for MAX_VERTICES points however the JSON is laid out."""
-MAX_VERTICES = 4096
-"""Most points of a rings file, all rings together: ear clipping is O(n^2) (0.15 s at 4096) and so, at worst, is
-the check that no two edges meet (n^2 / 2 pairs, 0.8 s)."""
+MAX_FILE_BYTES = 16 << 20
+"""Largest rings file (``input=``): 16 MiB, room for MAX_VERTICES points in compact JSON."""
+MAX_VERTICES = 200_000
+"""Most points of a rings file, all rings together: a lake with its islands or a country's outline. The host's
+robust pipeline takes about a minute at this size (``ugpcl bench ear_clipping``)."""
 COORD_LIMIT = 1e9
 """Largest |x| or |y| of a rings file: areas and cross products (2e9 squared) stay far inside float64, vertices
 inside float32 (meshes, the view)."""
@@ -97,6 +97,15 @@ def clean_ring(points) -> np.ndarray:
     return ring[keep] if keep.any() else ring[:1]
 
 
+def open_ring(points) -> np.ndarray:
+    """(n, 2) float64 without the closing repeat of the first vertex (GeoJSON closes its rings so); any other
+    repeated point is kept for the triangulator to merge and report."""
+    ring = np.asarray(points, np.float64).reshape(-1, 2)
+    while len(ring) > 1 and np.array_equal(ring[0], ring[-1]):
+        ring = ring[:-1]
+    return ring
+
+
 @file_cached(maxsize=8)
 def load_rings(path, name: str = "input") -> tuple[np.ndarray, ...]:
     """The rings of a JSON file ``{"rings": [[[x, y], ...], ...]}``, each cleaned (``clean_ring``), checked before
@@ -118,7 +127,7 @@ def load_rings(path, name: str = "input") -> tuple[np.ndarray, ...]:
     total = sum(len(r) for r in rings)
     if total > MAX_VERTICES:
         raise InputError(f"{where}: {total} points is more than the limit of {MAX_VERTICES}")
-    cleaned = [clean_ring(_points(where, i, ring)) for i, ring in enumerate(rings)]
+    cleaned = [open_ring(_points(where, i, ring)) for i, ring in enumerate(rings)]
     for i, ring in enumerate(cleaned):
         distinct = len(np.unique(ring, axis=0))
         if distinct < 3:
@@ -129,8 +138,10 @@ def load_rings(path, name: str = "input") -> tuple[np.ndarray, ...]:
     found = intersection(cleaned)
     if found is not None:
         (a, ea), (b, eb) = found
-        what = f"rings[{a}] intersects itself" if a == b else f"rings[{a}] and rings[{b}] intersect"
-        raise InputError(f"{where}: {what} (edge {ea} of rings[{a}] meets edge {eb} of rings[{b}])")
+        what = f"rings[{a}] crosses itself" if a == b else f"rings[{a}] and rings[{b}] cross"
+        raise InputError(
+            f"{where}: {what} (edge {ea} of rings[{a}] crosses edge {eb} of rings[{b}]); rings may touch, not cross"
+        )
     for ring in cleaned:
         ring.flags.writeable = False
     return tuple(cleaned)
@@ -158,19 +169,17 @@ def _points(where: str, index: int, ring: list) -> np.ndarray:
 
 
 def intersection(rings: list[np.ndarray], chunk: int = 1 << 18) -> tuple | None:
-    """The first pair of edges that share a point, as ((ring, edge), (ring, edge)), else None. Edges i and i + 1 of
-    one ring share their vertex: they count only when they fold back over each other. The pairs tested are those
-    whose ranges overlap along the axis where fewer do (a sweep), ``chunk`` at a time: at most n^2 / 2 pairs."""
+    """The first pair of edges that cross (at one point inside both, exact signs), as ((ring, edge), (ring, edge)),
+    else None. Touching (at an end, along a stretch) is allowed, and so are two edges of one ring one edge apart (a
+    local self-intersection, which the robust pipeline cures and reports). The pairs tested are those whose ranges
+    overlap along the axis where fewer do (a sweep), ``chunk`` at a time: at most n^2 / 2 pairs."""
+    from .exact import orient_many
+
     start = np.concatenate(rings)
     end = np.concatenate([np.roll(r, -1, axis=0) for r in rings])
-    before = np.concatenate([np.roll(r, 1, axis=0) for r in rings])
     ring_of = np.repeat(np.arange(len(rings)), [len(r) for r in rings])
     edge_of = np.concatenate([np.arange(len(r)) for r in rings])
     size_of = np.repeat([len(r) for r in rings], [len(r) for r in rings])
-    folds = (_orient(before, start, end) == 0) & (((start - before) * (end - start)).sum(axis=1) < 0)
-    if folds.any():  # a -> v -> b straight back along one line
-        k = int(np.argmax(folds))
-        return (int(ring_of[k]), int((edge_of[k] - 1) % size_of[k])), (int(ring_of[k]), int(edge_of[k]))
     lo, hi = np.minimum(start, end), np.maximum(start, end)
     sweeps = []
     for axis in (0, 1):
@@ -191,32 +200,23 @@ def intersection(rings: list[np.ndarray], chunk: int = 1 << 18) -> tuple | None:
         keep = (lo[j] <= hi[i]).all(axis=1) & (lo[i] <= hi[j]).all(axis=1)
         i, j = i[keep], j[keep]
         step = (edge_of[i] - edge_of[j]) % size_of[i]
-        apart = (ring_of[i] != ring_of[j]) | ((step != 1) & (step != size_of[i] - 1))
+        size = size_of[i]
+        near = (step == 1) | (step == 2) | (step == size - 1) | (step == size - 2)  # neighbours, or one edge apart
+        apart = (ring_of[i] != ring_of[j]) | ~near
         i, j = i[apart], j[apart]
-        meet = _segments_meet(start[i], end[i], start[j], end[j])
-        if meet.any():
-            k = int(np.argmax(meet))
+        p1, p2, q1, q2 = start[i], end[i], start[j], end[j]
+        d1 = orient_many(q1[:, 0], q1[:, 1], q2[:, 0], q2[:, 1], p1[:, 0], p1[:, 1])
+        d2 = orient_many(q1[:, 0], q1[:, 1], q2[:, 0], q2[:, 1], p2[:, 0], p2[:, 1])
+        cross = d1 * d2 < 0
+        d3 = orient_many(p1[cross, 0], p1[cross, 1], p2[cross, 0], p2[cross, 1], q1[cross, 0], q1[cross, 1])
+        d4 = orient_many(p1[cross, 0], p1[cross, 1], p2[cross, 0], p2[cross, 1], q2[cross, 0], q2[cross, 1])
+        cross[cross] = d3 * d4 < 0
+        if cross.any():
+            k = int(np.argmax(cross))
             pair = sorted([(int(ring_of[i[k]]), int(edge_of[i[k]])), (int(ring_of[j[k]]), int(edge_of[j[k]]))])
             return pair[0], pair[1]
         first = last
     return None
-
-
-def _orient(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """Sign of the turn a -> b -> c: 1 counter-clockwise, -1 clockwise, 0 on one line."""
-    return np.sign((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
-
-
-def _segments_meet(p1, p2, q1, q2) -> np.ndarray:
-    """Whether closed segments p1p2 and q1q2 share a point (crossing, touching or overlapping): their boxes
-    overlap already, so a point on the other's line touches it when it lies within that segment's box."""
-    d1, d2 = _orient(q1, q2, p1), _orient(q1, q2, p2)
-    d3, d4 = _orient(p1, p2, q1), _orient(p1, p2, q2)
-    meet = (d1 * d2 < 0) & (d3 * d4 < 0)
-    for d, a, b, c in ((d1, q1, q2, p1), (d2, q1, q2, p2), (d3, p1, p2, q1), (d4, p1, p2, q2)):
-        on = np.flatnonzero(d == 0)  # rare: only these need the box test
-        meet[on] |= ((np.minimum(a[on], b[on]) <= c[on]) & (c[on] <= np.maximum(a[on], b[on]))).all(axis=1)
-    return meet
 
 
 def save_rings(path, rings) -> None:

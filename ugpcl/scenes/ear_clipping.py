@@ -31,6 +31,8 @@ from ..scene import Simulation as BaseSimulation
 
 MAX_BATCH_VERTICES = 64
 """Largest polygon of the batch kernel (its MAX_VERTICES: private index ring and ear list)."""
+BOOKKEEPING = ("touching points inserted", "rings split where they touch themselves")
+"""What the robust pre-pass does that leaves the input's points and area as they are (not reported as altered)."""
 RECORD_LIMIT = 4096
 """Scenes with more vertices than this keep no ear-list trace (it grows as vertices x clips)."""
 MAX_TEXT = 64
@@ -42,14 +44,19 @@ class Params(BaseParams):
     preset: str = param("nested", choices=tuple(PRESETS))
     """The rings to triangulate (nested: the book's TriangulationTest scene; draw: start empty, as DrawTest)."""
     input: str = ""
-    """Path of a JSON file {"rings": [[[x, y], ...], ...]}; when set it replaces the preset. At most 1 MiB and
-    4096 points in all, |x|, |y| <= 1e9; each ring 3 or more distinct points with an area, no edges that meet."""
+    """Path of a JSON file {"rings": [[[x, y], ...], ...]}; when set it replaces the preset. At most 16 MiB and
+    200000 points in all, |x|, |y| <= 1e9; each ring 3 or more distinct points with an area; rings may touch, edges
+    may not cross (but two edges one apart: a local self-intersection, cured)."""
     text: str = "ugpcl"
     """Text of the glyph preset (1 to 64 characters)."""
     text_size: float = param(4.0, 0.0, 1000.0, lo_open=True)
     """Em size of the glyph preset, world units."""
-    variant: str = param("fixed", choices=("fixed", "book"))
-    """fixed: exact, stable sorts by area and right-most x; book: the book's FloorToInt comparator for both."""
+    variant: str = param("robust", choices=("robust", "fixed", "book"))
+    """robust: any rings real outlines hold (touching, pinched, repeated and collinear points, aligned holes, local
+    self-intersections), exact signs, never area left uncovered; fixed: the book's pipeline with exact, stable sorts;
+    book: the chapter as written (its FloorToInt comparator)."""
+    strict: bool = False
+    """A result that leaves input area uncovered or had to alter the input is an error (exit 1), not a warning."""
     delaunay: bool = False
     """Flip the ear-clipped triangles into the constrained Delaunay triangulation (Lawson flips; not in the book)."""
     compare_earcut: bool = False
@@ -147,6 +154,7 @@ class Simulation(BaseSimulation):
         _, offsets = self.input_arrays()
         found = []
         for group in self.result.group_rings:
+            group = list(dict.fromkeys(group))  # a ring split where it touches itself is in its groups once
             rings = [self.rings[i] for i in group]
             ends = np.cumsum([len(r) for r in rings]).astype(np.uint32)
             local = mapbox_earcut.triangulate_float64(np.concatenate(rings), ends).astype(np.int64)
@@ -195,6 +203,7 @@ class Simulation(BaseSimulation):
             "complete": bool(r.complete.all()),
             "deviation": self.deviation,
             "dropped holes": len(r.dropped),
+            **({"input altered": ", ".join(f"{v} {k}" for k, v in r.altered.items())} if r.altered else {}),
             "clips shown": self.clips,
         }
 
@@ -214,17 +223,21 @@ class Simulation(BaseSimulation):
         return (wanted - self.area_output) / wanted if wanted else 0.0
 
     def incomplete(self) -> str:
+        """One line when the triangles fall short of the input or the input had to be altered: what happened and the
+        area deviation."""
         r = self.result
         failed, dropped = int((~r.complete).sum()), len(r.dropped)
-        if not failed and not dropped and abs(self.deviation) <= 1e-9:
+        cured = {k: v for k, v in r.altered.items() if k not in BOOKKEEPING}
+        if not failed and not dropped and not cured and abs(self.deviation) <= 1e-9:
             return ""
-        why = []
+        why = [f"{count} {what}" for what, count in cured.items()]
         if failed:
             why.append(f"{failed} of {len(r.complete)} polygons ran out of ears")
         if dropped:
             why.append(f"{dropped} holes were dropped")
+        head = "input altered" if cured and not failed and not dropped else "triangulation incomplete"
         return (
-            f"triangulation incomplete: {', '.join(why) or 'the triangles do not match the input'}; the triangles "
+            f"{head}: {', '.join(why) or 'the triangles do not match the input'}; the triangles "
             f"cover {self.area_output:.6g} of the input's {self.area_input:.6g} ({100 * self.deviation:.3g} % "
             "uncovered)"
         )
@@ -245,32 +258,64 @@ class Simulation(BaseSimulation):
 # {{{ the batch kernel (not in the book)
 
 
-def ear_clip_batch(runtime, polygons) -> tuple[np.ndarray, np.ndarray]:
-    """Clip many simple clockwise polygons (holes already bridged) at once, one work-item each (EarClipping).
+def ear_clip_batch(runtime, polygons, robust: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Clip many merged clockwise polygons (holes already bridged: ``ec.merged_polygons``) at once, one work-item
+    each (EarClipping; ``robust``: built with ROBUST=1, the robust default's clipper, else the book's).
 
     Returns (triangles (sum(n_i - 2), 3) int32 indices into the concatenated vertices, counts (P,) int32 of rows
-    written per polygon); polygon i's rows start at offsets[i] - 2 i and unwritten rows (incomplete) are -1."""
+    written per polygon, finished (P,) bool: covered whole); polygon i's rows start at offsets[i] - 2 i and
+    unwritten rows are -1."""
     polygons = [np.asarray(p, np.float64).reshape(-1, 2) for p in polygons]
     sizes = np.array([len(p) for p in polygons], np.int64)
     if len(polygons) == 0:
-        return np.zeros((0, 3), np.int32), np.zeros(0, np.int32)
+        return np.zeros((0, 3), np.int32), np.zeros(0, np.int32), np.zeros(0, bool)
     if sizes.min() < 3 or sizes.max() > MAX_BATCH_VERTICES:
         raise ValueError(f"polygons must have 3 to {MAX_BATCH_VERTICES} vertices, got {sizes.min()}..{sizes.max()}")
     offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int32)
-    return clip_batch(runtime, np.concatenate(polygons), offsets)
+    return clip_batch(runtime, np.concatenate(polygons), offsets, robust)
 
 
-def clip_batch(runtime, points: np.ndarray, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def clip_batch(runtime, points: np.ndarray, offsets: np.ndarray, robust: bool = True):
     """EarClipping on polygons already checked and concatenated (``offsets``: (P + 1,) int32 into ``points``):
-    uploads, one launch, the triangles and counts read back (what the bench times)."""
+    uploads, one launch, the triangles, counts and finished flags read back (what the bench times)."""
     count = len(offsets) - 1
-    program = runtime.program("ear_clipping", MAX_VERTICES=MAX_BATCH_VERTICES)
+    program = runtime.program("ear_clipping", MAX_VERTICES=MAX_BATCH_VERTICES, ROBUST=int(robust))
     points_d = runtime.to_device(np.ascontiguousarray(points, np.float64))
     offsets_d = runtime.to_device(offsets)
     triangles_d = runtime.to_device(np.full((int(offsets[-1]) - 2 * count) * 3, -1, np.int32))
     counts_d = runtime.zeros(count, np.int32)
-    program.kernel("EarClipping").over(count, 64, points_d, offsets_d, triangles_d, counts_d, np.int32(count))
-    return triangles_d.get().reshape(-1, 3), counts_d.get()
+    finished_d = runtime.zeros(count, np.uint8)
+    kernel = program.kernel("EarClipping")
+    kernel.over(count, 64, points_d, offsets_d, triangles_d, counts_d, finished_d, np.int32(count))
+    return triangles_d.get().reshape(-1, 3), counts_d.get(), finished_d.get().astype(bool)
+
+
+def triangulate_batch(runtime, outlines) -> list[np.ndarray]:
+    """Real outlines (each a list of rings) triangulated in one launch: the robust pre-pass on the host
+    (``ec.merged_polygons``), the robust EarClipping kernel on every merged polygon of up to MAX_BATCH_VERTICES
+    vertices, the host's robust clipper (``ec.clip_robust``, with its last-resort stage) on larger ones and on any
+    the kernel could not finish. Returns per outline its triangles, (T, 3) float64 corner coordinates (clockwise,
+    y up)."""
+    merged = [ec.merged_polygons(rings) for rings in outlines]
+    flat = [(k, poly) for k, polys in enumerate(merged) for poly in polys]
+    small = [i for i, (_, poly) in enumerate(flat) if len(poly) <= MAX_BATCH_VERTICES]
+    found: list[list[np.ndarray]] = [[] for _ in outlines]
+    if small:
+        polys = [flat[i][1] for i in small]
+        sizes = np.array([len(p) for p in polys])
+        offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int32)
+        points = np.concatenate(polys)
+        triangles, counts, finished = clip_batch(runtime, points, offsets)
+        for j, i in enumerate(small):
+            if finished[j]:
+                start = offsets[j] - 2 * j
+                found[flat[i][0]].append(points[triangles[start : start + counts[j]]])
+    done = {small[j] for j in range(len(small)) if finished[j]} if small else set()
+    for i, (k, poly) in enumerate(flat):
+        if i not in done:
+            local, _ = ec.clip_robust(poly)
+            found[k].append(poly[np.asarray(local, np.int64).reshape(-1, 3)])
+    return [np.concatenate(f) if f else np.zeros((0, 3, 2)) for f in found]
 
 
 # }}}

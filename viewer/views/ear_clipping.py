@@ -60,7 +60,7 @@ class View(BaseView):
         Key("8", "preset glyph (the text parameter)", "preset_8"),
         Key("9", "preset draw (empty, as DrawTest)", "preset_9"),
         Key("d", "constrained Delaunay flips on/off", "toggle_delaunay"),
-        Key("v", "variant: fixed / book (the book's truncating sorts)", "toggle_variant"),
+        Key("v", "variant: robust / fixed / book (the chapter's clipper as written)", "toggle_variant"),
         Key("f", "fill on/off", "toggle_fill"),
         Key("w", "triangle edges on/off", "toggle_wire"),
         Key("l", "ear list markers on/off", "toggle_ears"),
@@ -253,7 +253,8 @@ class View(BaseView):
 
     def toggle_variant(self) -> None:
         rings = list(self.sim.rings)
-        self.sim.update(variant="book" if self.sim.params.variant == "fixed" else "fixed")
+        order = ("robust", "fixed", "book")
+        self.sim.update(variant=order[(order.index(self.sim.params.variant) + 1) % len(order)])
         self._keep(rings)
 
     def _keep(self, rings) -> None:
