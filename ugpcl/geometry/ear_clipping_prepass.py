@@ -181,7 +181,8 @@ def split_touching(rings: list[np.ndarray], notes: dict) -> tuple[list[np.ndarra
     for i, ring in zip(index, touched, strict=True):
         parts = _split_loops(ring)
         if len(parts) > 1:
-            notes["rings split where they touch themselves"] = notes.get("rings split where they touch themselves", 0) + 1
+            split = "rings split where they touch themselves"
+            notes[split] = notes.get(split, 0) + 1
         for part in parts:
             if ring_sign(part) != 0:
                 loops.append(part)
