@@ -963,10 +963,31 @@ def nesting_levels(rings) -> list[int]:
 
 
 def input_area(rings, levels) -> float:
-    """|outer| - |holes| + |islands| ...: the area the triangles must cover."""
-    return float(
-        sum((1 if lv % 2 else -1) * abs(signed_area(np.asarray(r, float))) for r, lv in zip(rings, levels, strict=True))
-    )
+    """|outer| - |holes| + |islands| ...: the area the triangles must cover (``ring_area`` for each ring)."""
+    return float(sum((1 if lv % 2 else -1) * ring_area(r) for r, lv in zip(rings, levels, strict=True)))
+
+
+def ring_area(ring) -> float:
+    """The area a ring encloses: |shoelace area|, or for a ring with local self-intersections (edges one apart that
+    cross) the sum over the loops they cut it into, each counted once whichever way it winds (a bowtie's two
+    lobes)."""
+    from .exact import orient
+
+    pts = [p for p in np.asarray(ring, np.float64).reshape(-1, 2)]
+    total, i = 0.0, 0
+    while len(pts) >= 4 and i < len(pts):
+        n = len(pts)
+        a, b, c, d = pts[i], pts[(i + 1) % n], pts[(i + 2) % n], pts[(i + 3) % n]
+        if orient(a, b, c) * orient(a, b, d) < 0 and orient(c, d, a) * orient(c, d, b) < 0:
+            r, q = b - a, d - c
+            x = a + ((c[0] - a[0]) * q[1] - (c[1] - a[1]) * q[0]) / (r[0] * q[1] - r[1] * q[0]) * r
+            total += abs(signed_area(np.array([x, b, c])))
+            pts = pts[i:] + pts[:i]
+            pts = [pts[0], x, *pts[3:]]
+            i = 0
+        else:
+            i += 1
+    return total + (abs(signed_area(np.array(pts))) if len(pts) >= 3 else 0.0)
 
 
 def triangle_signed_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
