@@ -207,6 +207,26 @@ CASES = {
         84.0,
         None,
     ),
+    "a bridge's nearest vertex hidden behind a hole": (
+        [
+            [[0, 0], [0, 10], [10, 10], [10, 5.5], [6, 5], [10, 4.5], [10, 0]],  # a dent from the right wall to (6, 5)
+            square(5, 1, 0.5, 8),  # a bar between the dent and the next hole
+            square(2, 4, 2),  # its M = (4, 6) is nearest the dent, which the bar hides
+        ],
+        None,
+        7 + 8 + 2 * 2 - 2,
+    ),
+    "a hole touching the outer ring at three points": ([square(0, 0, 8), [[0, 0], [8, 1], [6, 8]]], 64 - 29.0, None),
+    "holes touching where an ear would span one": (
+        [square(0, 0, 8), [[2, 2], [6, 4], [7, 4], [2, 6]], [[8, 4], [4, 6], [0, 7]]],
+        None,
+        None,
+    ),
+    "a hole sharing two walls at a corner": (
+        [square(0, 0, 6), [[0, 1], [0, 0], [2, 0], [2, 1], [2, 6]]],
+        36 - 7.0,
+        None,
+    ),
     "a pinched ring": ([[[0, 0], [0, 2], [1, 1], [2, 2], [2, 0], [1, 1]]], 2.0, None),
     "a self-tangent ring (its inner loop a hole)": (
         [[[0, 0], [0, 10], [10, 10], [10, 0], [5, 0], [7, 3], [3, 3], [5, 0]]],

@@ -142,6 +142,14 @@ def load_rings(path, name: str = "input") -> tuple[np.ndarray, ...]:
         raise InputError(
             f"{where}: {what} (edge {ea} of rings[{a}] crosses edge {eb} of rings[{b}]); rings may touch, not cross"
         )
+    from .ear_clipping_prepass import crossing_at_touches
+
+    found = crossing_at_touches([clean_ring(r) for r in cleaned])
+    if found is not None:
+        a, b, point = found
+        what = f"rings[{a}] crosses itself" if a == b else f"rings[{a}] and rings[{b}] cross"
+        at = ", ".join(f"{v:g}" for v in point)
+        raise InputError(f"{where}: {what} where they touch, at ({at}); rings may touch, not cross")
     for ring in cleaned:
         ring.flags.writeable = False
     return tuple(cleaned)

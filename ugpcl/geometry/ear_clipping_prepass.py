@@ -158,6 +158,39 @@ def _insert_touches(rings: list[np.ndarray], notes: dict) -> list[np.ndarray]:
     return out
 
 
+def _inside_sweep(x, u, w, d) -> bool:
+    """Point d, seen from x, lies strictly inside the counter-clockwise sweep from u to w (exact)."""
+    if orient(x, u, w) > 0:
+        return orient(x, u, d) > 0 and orient(x, d, w) > 0
+    return not (orient(x, u, d) <= 0 and orient(x, d, w) <= 0)
+
+
+def crossing_at_touches(rings: list[np.ndarray]) -> tuple[int, int, np.ndarray] | None:
+    """Two rings (or two visits of one ring) that cross where they touch: at a shared point, one passes from one
+    side of the other to its other side (its two edges there lie strictly on either side of the other's two). Edges
+    that cross in their interiors are ``ear_clipping_input.intersection``'s; this finds the crossings at vertices.
+    Returns (ring, ring, point) or None."""
+    rings = _insert_touches([np.asarray(r, np.float64) for r in rings], {})
+    visits: dict[tuple, list] = {}
+    for r, ring in enumerate(rings):
+        n = len(ring)
+        for i, p in enumerate(map(tuple, ring.tolist())):
+            visits.setdefault(p, []).append((r, ring[i - 1], ring[(i + 1) % n]))
+    for point, here in visits.items():
+        if len(here) < 2:
+            continue
+        x = np.asarray(point)
+        for k, (ra, a1, a2) in enumerate(here):
+            for rb, b1, b2 in here[k + 1 :]:
+                if any(np.array_equal(b, a) for b in (b1, b2) for a in (a1, a2)):
+                    continue  # they share an edge's direction here: touching along it
+                if _inside_sweep(x, a1, a2, b1) != _inside_sweep(x, a1, a2, b2):
+                    same_line = [orient(x, a, b) == 0 and np.dot(a - x, b - x) > 0 for a in (a1, a2) for b in (b1, b2)]
+                    if not any(same_line):
+                        return ra, rb, x
+    return None
+
+
 def _split_loops(ring: np.ndarray) -> list[np.ndarray]:
     """A ring that visits a point twice, split there into loops that visit each point once."""
     seen: dict[tuple, int] = {}
@@ -302,8 +335,9 @@ def _blocked(m, p, a: np.ndarray, b: np.ndarray) -> bool:
     return bool(((om == 0) & strictly_within(m, a, b)).any() or ((op == 0) & strictly_within(p, a, b)).any())
 
 
-def _splice_at_shared(merged: np.ndarray, hole: np.ndarray) -> np.ndarray | None:
-    """The hole spliced in at a point it shares with the polygon (at the copy whose angle holds the hole), or None."""
+def _splice_at_shared(merged: np.ndarray, bridged: np.ndarray, hole: np.ndarray):
+    """The hole spliced in at a point it shares with the polygon (at the copy whose angle holds the hole), or None.
+    ``bridged`` flags the polygon's edges (vertex i -> i + 1) that are bridges; a splice adds none."""
     where = {}
     for i, p in enumerate(map(tuple, merged.tolist())):
         where.setdefault(p, []).append(i)
@@ -313,12 +347,15 @@ def _splice_at_shared(merged: np.ndarray, hole: np.ndarray) -> np.ndarray | None
             direction = hole[(j + 1) % len(hole)]
             if in_cone(merged[i - 1], merged[i], merged[(i + 1) % n], direction):
                 turned = np.concatenate([hole[j:], hole[:j]])
-                return np.concatenate([merged[: i + 1], turned[1:], turned[:1], merged[i + 1 :]])
+                points = np.concatenate([merged[: i + 1], turned[1:], turned[:1], merged[i + 1 :]])
+                flags = np.concatenate([bridged[:i], np.zeros(len(hole), bool), bridged[i:]])
+                return points, flags
     return None
 
 
-def _bridge(merged: np.ndarray, hole: np.ndarray, others: list[np.ndarray]) -> np.ndarray | None:
-    """The hole bridged from its right-most (then top-most) vertex M to the nearest valid vertex right of it."""
+def _bridge(merged: np.ndarray, bridged: np.ndarray, hole: np.ndarray, others: list[np.ndarray]):
+    """The hole bridged from its right-most (then top-most) vertex M to the nearest valid vertex right of it: the
+    polygon and its bridge flags, or None."""
     m_index = int(np.lexsort((hole[:, 1], hole[:, 0]))[-1])
     m = hole[m_index]
     right = (merged[:, 0] > m[0]) | ((merged[:, 0] == m[0]) & (merged[:, 1] > m[1]))
@@ -340,32 +377,79 @@ def _bridge(merged: np.ndarray, hole: np.ndarray, others: list[np.ndarray]) -> n
         if _blocked(m, p, a, b):
             continue
         turned = np.concatenate([hole[m_index:], hole[:m_index]])
-        return np.concatenate([merged[: i + 1], turned, turned[:1], merged[i : i + 1], merged[i + 1 :]])
+        points = np.concatenate([merged[: i + 1], turned, turned[:1], merged[i : i + 1], merged[i + 1 :]])
+        # P -> M, the hole's h edges, M' -> P', then P' -> the old next (what P -> next was)
+        flags = np.concatenate([bridged[:i], [True], np.zeros(h, bool), [True], bridged[i:]])
+        return points, flags
     return None
 
 
-def merge(outer: np.ndarray, holes: list[np.ndarray]) -> tuple[np.ndarray, list[int]]:
-    """The outer loop (counter-clockwise) with its holes (clockwise) in one polygon; returns it and the holes that
-    could not be joined (none for valid input)."""
-    merged = outer
+def merge(outer: np.ndarray, holes: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """The outer loop (counter-clockwise) with its holes (clockwise) in one polygon; returns it, its bridge flags
+    (edge i -> i + 1 a bridge) and the holes that could not be joined (none for valid input)."""
+    merged, bridged = outer, np.zeros(len(outer), bool)
     waiting = sorted(range(len(holes)), key=lambda k: tuple(holes[k][np.lexsort((holes[k][:, 1], holes[k][:, 0]))[-1]]))
     lost = []
     while waiting:
         spliced = False
         for k in list(waiting):
-            joined = _splice_at_shared(merged, holes[k])
+            joined = _splice_at_shared(merged, bridged, holes[k])
             if joined is not None:
-                merged, spliced = joined, True
+                (merged, bridged), spliced = joined, True
                 waiting.remove(k)
         if spliced or not waiting:
             continue
         k = waiting.pop()  # the right-most M
-        joined = _bridge(merged, holes[k], [holes[j] for j in waiting])
+        joined = _bridge(merged, bridged, holes[k], [holes[j] for j in waiting])
         if joined is None:
             lost.append(k)
         else:
-            merged = joined
-    return merged, lost
+            merged, bridged = joined
+    return merged, bridged, lost
+
+
+def weld(polygon: np.ndarray, bridged: np.ndarray) -> list[np.ndarray]:
+    """Ring edges the merged polygon runs both ways (a -> b and b -> a: a hole sharing a stretch of boundary with
+    its outer ring or with another hole; bridges excepted) bound no area: both are cut out and the ends rejoined,
+    which may split the polygon into several. Returns the pieces that still have area, each a cycle of the
+    polygon's vertices."""
+    n = len(polygon)
+    nxt = list(range(1, n)) + [0]
+    bridge = bridged.tolist()
+    key = [tuple(p) for p in polygon.tolist()]
+    edges: dict[tuple, list[int]] = {}
+    for i in range(n):
+        if not bridge[i] and key[i] != key[nxt[i]]:
+            edges.setdefault((key[i], key[nxt[i]]), []).append(i)
+    todo = list(range(n))
+    while todo:
+        i = todo.pop()
+        if nxt[i] < 0 or bridge[i] or key[i] == key[nxt[i]]:
+            continue
+        mates = [j for j in edges.get((key[nxt[i]], key[i]), ()) if nxt[j] >= 0 and key[j] == key[nxt[i]]]
+        mates = [j for j in mates if key[nxt[j]] == key[i] and not bridge[j] and j not in (i, nxt[i]) and nxt[j] != i]
+        if not mates:
+            continue
+        j = mates[0]
+        ni, nj = nxt[i], nxt[j]  # a_i -> b_ni ... b_j -> a_nj: a_i goes on as a_nj did, b_j as b_ni did
+        nxt[i], nxt[j], bridge[i], bridge[j] = nxt[nj], nxt[ni], bridge[nj], bridge[ni]
+        nxt[ni] = nxt[nj] = -1
+        for k in (i, j):
+            if not bridge[k] and key[k] != key[nxt[k]]:
+                edges.setdefault((key[k], key[nxt[k]]), []).append(k)
+        todo += [i, j]
+    pieces, seen = [], set()
+    for start in range(n):
+        if nxt[start] < 0 or start in seen:
+            continue
+        cycle, v = [], start
+        while v not in seen:
+            seen.add(v)
+            cycle.append(v)
+            v = nxt[v]
+        if v == start and len(cycle) >= 3 and ring_sign(polygon[cycle]) != 0:
+            pieces.append(polygon[cycle])
+    return pieces
 
 
 # }}}
@@ -393,6 +477,8 @@ def prepare(rings) -> Prepared:
     """The pre-pass: clean, split where rings touch, nest, orient, merge."""
     out = Prepared()
     cleaned = [clean(r, out.notes) for r in rings]
+    if crossing_at_touches([r for r in cleaned if len(r)]) is not None:
+        out.notes["crossings where rings touch (invalid input)"] = 1
     out.loops, out.loop_ring = split_touching(cleaned, out.notes)
     out.parent = nest(out.loops)
     out.depth = depths(out.parent)
@@ -407,9 +493,10 @@ def prepare(rings) -> Prepared:
         if depth % 2 == 0:
             continue
         holes = children.get(i, [])
-        merged, lost = merge(out.loops[i], [out.loops[k] for k in holes])
+        merged, bridged, lost = merge(out.loops[i], [out.loops[k] for k in holes])
         out.lost += [holes[k] for k in lost]
-        out.polygons.append(merged[::-1].copy())
-        out.group_loops.append([i, *holes])
+        for piece in weld(merged, bridged):
+            out.polygons.append(piece[::-1].copy())
+            out.group_loops.append([i, *holes])
     out.notes = {k: v for k, v in out.notes.items() if v}
     return out
