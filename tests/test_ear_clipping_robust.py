@@ -275,10 +275,26 @@ def test_batch_kernel_path(runtime, case):
     """All eight placements of a case in one launch (merged polygons of up to 64 vertices on the kernel)."""
     rings, area, count = CASES[case]
     placements = list(transformed(rings))
-    found = triangulate_batch(runtime, [turned for _, turned in placements])
+    found, left_to_host = triangulate_batch(runtime, [turned for _, turned in placements])
+    assert left_to_host == 0, f"{case}: the kernel left {left_to_host} polygons to the host"
     rng = np.random.default_rng(1)
     for (how, turned), triangles in zip(placements, found, strict=True):
         check(f"{case} {how} (batch)", turned, triangles, area, count, rng)
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_the_last_resort_stage_alone_covers_the_merged_polygons(case):
+    """``finish``, the stage that takes over when the ear list runs dry, given each merged polygon whole: drops
+    flat vertices, splits along diagonals and clips the halves, covering the area exactly."""
+    rings, area, _ = CASES[case]
+    from ugpcl.geometry.ear_clipping_prepass import prepare
+
+    pieces = []
+    for polygon in prepare(rings).polygons:
+        found, done = ec.finish(polygon, list(range(len(polygon))))
+        assert done, case
+        pieces.append(polygon[np.asarray(found, np.int64).reshape(-1, 3)])
+    check(f"{case} (finish)", rings, np.concatenate(pieces), area, None, np.random.default_rng(2))
 
 
 def test_no_zero_area_triangles_from_a_repeated_vertex():

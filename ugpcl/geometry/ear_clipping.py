@@ -897,11 +897,12 @@ MAX_FINISH_DEPTH = 64
 
 def finish(points: np.ndarray, cycle: list[int], depth: int = 0) -> tuple[list[tuple[int, int, int]], bool]:
     """The last-resort stage, for the vertices ``cycle`` (ids into ``points``, clockwise) that the ear list left:
-    vertices with their neighbours on one line are dropped (they cover nothing), then the rest is split along a
+    vertices where the ring turns back on itself are dropped (they cover nothing), then the rest is split along a
     diagonal that lies inside it and meets no edge (one exists in every simple polygon, exact signs find it) and
-    each half is clipped again. Returns (triangles, whether all of the area was covered)."""
+    each half is clipped again; a polygon that visits a point twice with both loops winding its way (pieces that
+    only touch) is first split there. Returns (triangles, whether all of the area was covered)."""
     from .ear_clipping_prepass import _blocked, in_cone
-    from .exact import orient
+    from .exact import orient, ring_sign
 
     cycle = list(cycle)
     changed = True
@@ -909,7 +910,7 @@ def finish(points: np.ndarray, cycle: list[int], depth: int = 0) -> tuple[list[t
         changed = False
         for i in range(len(cycle)):
             a, b, c = points[cycle[i - 1]], points[cycle[i]], points[cycle[(i + 1) % len(cycle)]]
-            if orient(a, b, c) == 0:
+            if orient(a, b, c) == 0 and float(np.dot(a - b, c - b)) >= 0.0:  # turns back: a spike, a repeat
                 del cycle[i]
                 changed = True
                 break
@@ -918,6 +919,15 @@ def finish(points: np.ndarray, cycle: list[int], depth: int = 0) -> tuple[list[t
     if len(cycle) == 3:
         a, b, c = (points[k] for k in cycle)
         return ([tuple(cycle)] if orient(a, b, c) < 0 else []), orient(a, b, c) <= 0
+    seen: dict[tuple, int] = {}
+    for j, k in enumerate(cycle):  # a point visited twice: split there if both loops wind as the polygon does
+        i = seen.setdefault(tuple(points[k].tolist()), j)
+        if i != j:
+            first, second = cycle[i:j], cycle[j:] + cycle[:i]
+            if ring_sign(points[first]) < 0 and ring_sign(points[second]) < 0 and depth < MAX_FINISH_DEPTH:
+                found, done = finish(points, first, depth + 1)
+                more, also = finish(points, second, depth + 1)
+                return found + more, done and also
     # clockwise cycle: reversed, the region is on the left (the pre-pass's convention for in_cone)
     ccw = cycle[::-1]
     pts = points[ccw]

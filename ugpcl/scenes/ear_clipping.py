@@ -290,12 +290,12 @@ def clip_batch(runtime, points: np.ndarray, offsets: np.ndarray, robust: bool = 
     return triangles_d.get().reshape(-1, 3), counts_d.get(), finished_d.get().astype(bool)
 
 
-def triangulate_batch(runtime, outlines) -> list[np.ndarray]:
+def triangulate_batch(runtime, outlines) -> tuple[list[np.ndarray], int]:
     """Real outlines (each a list of rings) triangulated in one launch: the robust pre-pass on the host
     (``ec.merged_polygons``), the robust EarClipping kernel on every merged polygon of up to MAX_BATCH_VERTICES
     vertices, the host's robust clipper (``ec.clip_robust``, with its last-resort stage) on larger ones and on any
-    the kernel could not finish. Returns per outline its triangles, (T, 3) float64 corner coordinates (clockwise,
-    y up)."""
+    the kernel could not finish. Returns (per outline its triangles, (T, 3, 2) float64 corners, clockwise, y up;
+    how many merged polygons of kernel size the kernel left to the host)."""
     merged = [ec.merged_polygons(rings) for rings in outlines]
     flat = [(k, poly) for k, polys in enumerate(merged) for poly in polys]
     small = [i for i, (_, poly) in enumerate(flat) if len(poly) <= MAX_BATCH_VERTICES]
@@ -315,7 +315,8 @@ def triangulate_batch(runtime, outlines) -> list[np.ndarray]:
         if i not in done:
             local, _ = ec.clip_robust(poly)
             found[k].append(poly[np.asarray(local, np.int64).reshape(-1, 3)])
-    return [np.concatenate(f) if f else np.zeros((0, 3, 2)) for f in found]
+    left = len(small) - len(done)
+    return [np.concatenate(f) if f else np.zeros((0, 3, 2)) for f in found], left
 
 
 # }}}
