@@ -351,3 +351,17 @@ def test_a_cured_self_intersection_is_reported_with_its_deviation(runtime, tmp_p
 def test_repeated_points_are_reported(runtime, tmp_path):
     code, err = run_cli(tmp_path, [[[0, 0], [0, 1], [0, 1], [1, 1], [1, 0]]])
     assert code == 0 and len(err) == 1 and "1 duplicate points merged" in err[0] and "(0 % uncovered)" in err[0]
+
+
+def test_rings_that_cross_are_noted_by_the_api_and_refused_from_a_file(runtime, tmp_path):
+    crossing = [square(0, 0, 4), [[1, 1], [5, 2], [2, 3]]]  # the hole leaves the outer ring through its side
+    assert any("cross" in what for what in ec.triangulate(crossing).altered)
+    touching_across = [square(0, 0, 4), [[2, 0], [3, -1], [3.5, 0], [3, 1]]]  # through the bottom at two vertices
+    assert any("cross" in what for what in ec.triangulate(touching_across).altered)
+    from ugpcl.scenes.ear_clipping import Params
+
+    path = tmp_path / "rings.json"
+    path.write_text(json.dumps({"rings": touching_across}))
+    with pytest.raises(ValueError) as refused:
+        Params(input=str(path))
+    assert "rings[0] and rings[1] cross where they touch, at (3.5, 0); rings may touch, not cross" in str(refused.value)

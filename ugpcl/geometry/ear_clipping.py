@@ -991,13 +991,13 @@ def ring_area(ring) -> float:
         if orient(a, b, c) * orient(a, b, d) < 0 and orient(c, d, a) * orient(c, d, b) < 0:
             r, q = b - a, d - c
             x = a + ((c[0] - a[0]) * q[1] - (c[1] - a[1]) * q[0]) / (r[0] * q[1] - r[1] * q[0]) * r
-            total += abs(signed_area(np.array([x, b, c])))
+            total += abs(signed_area(np.array([x, b, c]) - x))
             pts = pts[i:] + pts[:i]
             pts = [pts[0], x, *pts[3:]]
             i = 0
         else:
             i += 1
-    return total + (abs(signed_area(np.array(pts))) if len(pts) >= 3 else 0.0)
+    return total + (abs(signed_area(np.array(pts) - pts[0])) if len(pts) >= 3 else 0.0)  # moved: far-off rings
 
 
 def triangle_signed_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:

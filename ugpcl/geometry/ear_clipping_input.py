@@ -13,6 +13,7 @@ import numpy as np
 
 from ..inputs import InputError, file_cached, read_json, shown
 from .ear_clipping import merged_polygons
+from .ear_clipping_prepass import crossing_at_touches, intersection
 
 MAX_FILE_BYTES = 16 << 20
 """Largest rings file (``input=``): 16 MiB, room for MAX_VERTICES points in compact JSON."""
@@ -142,8 +143,6 @@ def load_rings(path, name: str = "input") -> tuple[np.ndarray, ...]:
         raise InputError(
             f"{where}: {what} (edge {ea} of rings[{a}] crosses edge {eb} of rings[{b}]); rings may touch, not cross"
         )
-    from .ear_clipping_prepass import crossing_at_touches
-
     found = crossing_at_touches([clean_ring(r) for r in cleaned])
     if found is not None:
         a, b, point = found
@@ -174,57 +173,6 @@ def _points(where: str, index: int, ring: list) -> np.ndarray:
                 shown_v = f"{float(v):g}" if abs(v) < 1e308 else "a number beyond float64"
                 raise InputError(f"{where}: rings[{index}][{j}] has {shown_v}; coordinates must be within +-1e9")
     return np.asarray(ring, np.float64).reshape(-1, 2)
-
-
-def intersection(rings: list[np.ndarray], chunk: int = 1 << 18) -> tuple | None:
-    """The first pair of edges that cross (at one point inside both, exact signs), as ((ring, edge), (ring, edge)),
-    else None. Touching (at an end, along a stretch) is allowed, and so are two edges of one ring one edge apart (a
-    local self-intersection, which the robust pipeline cures and reports). The pairs tested are those whose ranges
-    overlap along the axis where fewer do (a sweep), ``chunk`` at a time: at most n^2 / 2 pairs."""
-    from .exact import orient_many
-
-    start = np.concatenate(rings)
-    end = np.concatenate([np.roll(r, -1, axis=0) for r in rings])
-    ring_of = np.repeat(np.arange(len(rings)), [len(r) for r in rings])
-    edge_of = np.concatenate([np.arange(len(r)) for r in rings])
-    size_of = np.repeat([len(r) for r in rings], [len(r) for r in rings])
-    lo, hi = np.minimum(start, end), np.maximum(start, end)
-    sweeps = []
-    for axis in (0, 1):
-        order = np.argsort(lo[:, axis], kind="stable")
-        stop = np.searchsorted(lo[order, axis], hi[order, axis], side="right")
-        counts = np.maximum(stop - np.arange(len(order)) - 1, 0)  # edges after the i-th that may meet it
-        sweeps.append((int(counts.sum()), order, counts))
-    _, order, counts = min(sweeps, key=lambda s: s[0])
-    start, end, lo, hi, ring_of, edge_of, size_of = (a[order] for a in (start, end, lo, hi, ring_of, edge_of, size_of))
-    ends = np.cumsum(counts)
-    first = 0
-    while first < len(order):
-        last = int(np.searchsorted(ends, ends[first] - counts[first] + chunk, side="right"))
-        last = min(max(last, first + 1), len(order))  # edges first .. last - 1: about ``chunk`` pairs
-        runs = counts[first:last]
-        i = np.repeat(np.arange(first, last), runs)
-        j = i + 1 + np.arange(len(i)) - np.repeat(np.cumsum(runs) - runs, runs)
-        keep = (lo[j] <= hi[i]).all(axis=1) & (lo[i] <= hi[j]).all(axis=1)
-        i, j = i[keep], j[keep]
-        step = (edge_of[i] - edge_of[j]) % size_of[i]
-        size = size_of[i]
-        near = (step == 1) | (step == 2) | (step == size - 1) | (step == size - 2)  # neighbours, or one edge apart
-        apart = (ring_of[i] != ring_of[j]) | ~near
-        i, j = i[apart], j[apart]
-        p1, p2, q1, q2 = start[i], end[i], start[j], end[j]
-        d1 = orient_many(q1[:, 0], q1[:, 1], q2[:, 0], q2[:, 1], p1[:, 0], p1[:, 1])
-        d2 = orient_many(q1[:, 0], q1[:, 1], q2[:, 0], q2[:, 1], p2[:, 0], p2[:, 1])
-        cross = d1 * d2 < 0
-        d3 = orient_many(p1[cross, 0], p1[cross, 1], p2[cross, 0], p2[cross, 1], q1[cross, 0], q1[cross, 1])
-        d4 = orient_many(p1[cross, 0], p1[cross, 1], p2[cross, 0], p2[cross, 1], q2[cross, 0], q2[cross, 1])
-        cross[cross] = d3 * d4 < 0
-        if cross.any():
-            k = int(np.argmax(cross))
-            pair = sorted([(int(ring_of[i[k]]), int(edge_of[i[k]])), (int(ring_of[j[k]]), int(edge_of[j[k]]))])
-            return pair[0], pair[1]
-        first = last
-    return None
 
 
 def save_rings(path, rings) -> None:
