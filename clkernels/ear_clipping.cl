@@ -211,3 +211,181 @@ __kernel void EarClipping(const __global double2* points, const __global int* of
     triangle_counts[i] = emitted;
     finished[i] = done;
 }
+
+// {{{ EarClippingLarge: one large polygon, one work-item (not in the book; meant for CPU devices)
+//
+// The robust clipper of EarClipping for a polygon of any size: the ring, the FIFO ear list and a grid of the
+// vertices live in global memory, and the ear test reads only the vertices in the grid cells around the ear's
+// triangle (grown by 1/1024 of its longer side) instead of every live vertex. Host: ear_clip_large
+// (ugpcl/scenes/ear_clipping.py), which fills cell_head with -1; the host twin is EarClipper(robust=True).
+// Output: triangles (n - 2 rows at most), result[0] = rows written, result[1] = 1 when the polygon is covered.
+
+#define NONE (-1)
+
+inline bool large_convex(const __global double2* pts, const __global int* prev, const __global int* next, int v) {
+    return is_convex(pts[v], pts[prev[v]], pts[next[v]]);
+}
+
+// EarClipper._flat: the ring turns back on itself at v; straight: or runs on
+inline bool large_flat(const __global double2* pts, const __global int* prev, const __global int* next, int v,
+                       bool straight) {
+    const double2 a = pts[prev[v]], b = pts[v], c = pts[next[v]];
+    return cross2(b - a, c - a) == 0.0 && (straight || dot(a - b, c - b) >= 0.0);
+}
+
+// in_cone read backwards, as above, on the global ring
+inline bool large_in_cone(double2 before, double2 at, double2 after, double2 target) {
+    const double2 prev = after, nxt = before;
+    if (cross2(at - prev, nxt - prev) > 0.0)
+        return cross2(target - at, prev - at) > 0.0 && cross2(at - target, nxt - target) > 0.0;
+    return !(cross2(target - at, nxt - at) >= 0.0 && cross2(at - target, prev - target) >= 0.0);
+}
+
+inline bool large_corner_blocks(const __global double2* pts, const __global int* prev, const __global int* next,
+                                int k, int corner, int after, int before, int v, int p, int q) {
+    const double2 at = pts[corner];
+    if (corner != v) {
+        const int target = corner == p ? q : p;
+        const double2 b0 = pts[prev[corner]], a0 = pts[next[corner]];
+        if (same_point(b0, at) || same_point(a0, at) || !large_in_cone(b0, at, a0, pts[target])) return true;
+    }
+    const double2 u = pts[after] - at, w = at - pts[before];
+    const double2 d1 = pts[prev[k]] - at, d2 = pts[next[k]] - at;
+    return (cross2(u, d1) < 0.0 && cross2(w, d1) < 0.0) || (cross2(u, d2) < 0.0 && cross2(w, d2) < 0.0);
+}
+
+// The ear test: -1 reflex, 0 blocked, 1 an ear (the vertices of the grid cells around the triangle)
+inline int large_ear_state(const __global double2* pts, const __global int* prev, const __global int* next,
+                           const __global uchar* alive, const __global int* cell_head, const __global int* cell_next,
+                           const double2 lo, const double inv_cell, const int grid, int v) {
+    const int p = prev[v], q = next[v];
+    const double2 a = pts[p], b = pts[v], c = pts[q];
+    if (!is_convex(b, a, c)) return -1;
+    const double2 box_lo = fmin(fmin(a, b), c), box_hi = fmax(fmax(a, b), c);
+    const double grow = fmax(box_hi.x - box_lo.x, box_hi.y - box_lo.y) * (1.0 / 1024.0);
+    const int i0 = clamp((int)floor((box_lo.x - grow - lo.x) * inv_cell), 0, grid - 1);
+    const int i1 = clamp((int)floor((box_hi.x + grow - lo.x) * inv_cell), 0, grid - 1);
+    const int j0 = clamp((int)floor((box_lo.y - grow - lo.y) * inv_cell), 0, grid - 1);
+    const int j1 = clamp((int)floor((box_hi.y + grow - lo.y) * inv_cell), 0, grid - 1);
+    for (int j = j0; j <= j1; j++) {
+        for (int i = i0; i <= i1; i++) {
+            for (int k = cell_head[j * grid + i]; k != NONE; k = cell_next[k]) {
+                if (!alive[k] || k == p || k == v || k == q) continue;
+                const double2 o = pts[k];
+                if (!(right_of(o, b, c) && right_of(o, c, a) && right_of(o, a, b))) continue;
+                if (same_point(o, a)) { if (large_corner_blocks(pts, prev, next, k, p, v, q, v, p, q)) return 0; continue; }
+                if (same_point(o, b)) { if (large_corner_blocks(pts, prev, next, k, v, q, p, v, p, q)) return 0; continue; }
+                if (same_point(o, c)) { if (large_corner_blocks(pts, prev, next, k, q, p, v, v, p, q)) return 0; continue; }
+                return 0;
+            }
+        }
+    }
+    return 1;
+}
+
+// the FIFO ear list, linked through ear_next / ear_prev; index n is its head and tail sentinel
+inline void large_append(__global int* ear_next, __global int* ear_prev, __global uchar* listed, int n, int v) {
+    const int tail = ear_prev[n];
+    ear_next[tail] = v;
+    ear_prev[v] = tail;
+    ear_next[v] = n;
+    ear_prev[n] = v;
+    listed[v] = 1;
+}
+
+inline void large_unlist(__global int* ear_next, __global int* ear_prev, __global uchar* listed, int v) {
+    const int before = ear_prev[v], after = ear_next[v];
+    ear_next[before] = after;
+    ear_prev[after] = before;
+    listed[v] = 0;
+}
+
+__kernel void EarClippingLarge(const __global double2* pts, const int n, __global int* prev, __global int* next,
+                               __global int* ear_next, __global int* ear_prev, __global uchar* listed,
+                               __global uchar* alive, __global int* cell_head, __global int* cell_next,
+                               const double2 lo, const double inv_cell, const int grid, __global int* triangles,
+                               __global int* result) {
+    if (get_global_id(0) != 0) return;
+    for (int v = 0; v < n; v++) {
+        prev[v] = v == 0 ? n - 1 : v - 1;
+        next[v] = v == n - 1 ? 0 : v + 1;
+        listed[v] = 0;
+        alive[v] = 1;
+        const int i = clamp((int)floor((pts[v].x - lo.x) * inv_cell), 0, grid - 1);
+        const int j = clamp((int)floor((pts[v].y - lo.y) * inv_cell), 0, grid - 1);
+        cell_next[v] = cell_head[j * grid + i];
+        cell_head[j * grid + i] = v;
+    }
+    ear_next[n] = ear_prev[n] = n;
+    int count = n, emitted = 0;
+    bool done = n < 3;
+#define REMOVE(v)                                                   \
+    do {                                                            \
+        if (listed[v]) large_unlist(ear_next, ear_prev, listed, v); \
+        next[prev[v]] = next[v];                                    \
+        prev[next[v]] = prev[v];                                    \
+        alive[v] = 0;                                               \
+        count--;                                                    \
+    } while (0)
+#define CHECK(v)                                                                                               \
+    do {                                                                                                       \
+        const int state = large_ear_state(pts, prev, next, alive, cell_head, cell_next, lo, inv_cell, grid, v); \
+        if (state == 1 && !listed[v]) large_append(ear_next, ear_prev, listed, n, v);                          \
+        else if (state != 1 && listed[v]) large_unlist(ear_next, ear_prev, listed, v);                         \
+    } while (0)
+    if (!done) {
+        for (bool changed = true; changed && count > 3;) {  // passes in index order until none is flat
+            changed = false;
+            for (int v = 0; v < n; v++) {
+                if (count > 3 && alive[v] && large_flat(pts, prev, next, v, false)) {
+                    REMOVE(v);
+                    changed = true;
+                }
+            }
+        }
+        int any = 0;
+        while (!alive[any]) any++;
+        done = count == 3 && large_flat(pts, prev, next, any, true);
+    }
+    if (!done)
+        for (int v = 0; v < n; v++)
+            if (alive[v]) CHECK(v);
+    while (!done && ear_next[n] != n) {
+        const int e = ear_next[n];
+        int p = prev[e], q = next[e];
+        triangles[3 * emitted + 0] = p;
+        triangles[3 * emitted + 1] = e;
+        triangles[3 * emitted + 2] = q;
+        emitted++;
+        if (count == 3) {
+            done = true;
+            break;
+        }
+        REMOVE(e);
+        while (count > 3) {
+            int gone;
+            if (large_flat(pts, prev, next, p, false)) {
+                gone = p;
+                p = prev[p];
+            } else if (large_flat(pts, prev, next, q, false)) {
+                gone = q;
+                q = next[q];
+            } else {
+                break;
+            }
+            REMOVE(gone);
+        }
+        if (count == 3 && large_flat(pts, prev, next, p, true)) {
+            done = true;
+            break;
+        }
+        CHECK(p);
+        CHECK(q);
+    }
+#undef REMOVE
+#undef CHECK
+    result[0] = emitted;
+    result[1] = done;
+}
+
+// }}}

@@ -19,7 +19,8 @@ import numpy as np
 import pytest
 
 from ugpcl.geometry import ear_clipping as ec
-from ugpcl.scenes.ear_clipping import triangulate_batch
+from ugpcl.geometry.ear_clipping_input import star
+from ugpcl.scenes.ear_clipping import ear_clip_batch, ear_clip_large, triangulate_batch
 
 PROBES = 20_000
 
@@ -365,3 +366,42 @@ def test_rings_that_cross_are_noted_by_the_api_and_refused_from_a_file(runtime, 
     with pytest.raises(ValueError) as refused:
         Params(input=str(path))
     assert "rings[0] and rings[1] cross where they touch, at (3.5, 0); rings may touch, not cross" in str(refused.value)
+
+
+LARGE = ["a hundred holes on aligned rows", "a lake with islands, three touching the shore", "building footprints"]
+
+
+@pytest.mark.parametrize("case", LARGE)
+def test_the_large_kernel_equals_the_host(runtime, case):
+    """EarClippingLarge (one work-item, the grid search) gives the host's robust clipper's triangles, in order."""
+    from ugpcl.geometry.ear_clipping_prepass import prepare
+
+    for how, turned in list(transformed(CASES[case][0]))[:4]:
+        for polygon in prepare(turned).polygons:
+            triangles, covered = ear_clip_large(runtime, polygon)
+            host, host_covered = ec.clip_robust(polygon)
+            assert covered and host_covered, f"{case} {how}"
+            np.testing.assert_array_equal(triangles, np.asarray(host).reshape(-1, 3), err_msg=f"{case} {how}")
+
+
+def test_the_large_kernel_on_a_star_of_10000_vertices(runtime):
+    ring = star(5000, 1.0, 0.5)
+    polygon = ec.merged_polygons([ring])[0]
+    triangles, covered = ear_clip_large(runtime, polygon)
+    assert covered and len(triangles) == 9998
+    np.testing.assert_array_equal(triangles, np.asarray(ec.clip_robust(polygon)[0]))
+
+
+@pytest.mark.oclgrind
+def test_robust_kernels_on_oclgrind(oclgrind):
+    """Both kernels built robust, on Oclgrind with data-race checks: a touching-hole outline and a pinched ring."""
+    from ugpcl.geometry.ear_clipping_prepass import prepare
+
+    polygons = prepare(CASES["a hole cutting the square into four"][0]).polygons
+    polygons += prepare(CASES["a pinched ring"][0]).polygons
+    triangles, counts, finished = ear_clip_batch(oclgrind, polygons)
+    assert finished.all()
+    for polygon in polygons[:1]:
+        large, covered = ear_clip_large(oclgrind, polygon)
+        assert covered
+        np.testing.assert_array_equal(large, np.asarray(ec.clip_robust(polygon)[0]))

@@ -290,12 +290,45 @@ def clip_batch(runtime, points: np.ndarray, offsets: np.ndarray, robust: bool = 
     return triangles_d.get().reshape(-1, 3), counts_d.get(), finished_d.get().astype(bool)
 
 
+def ear_clip_large(runtime, polygon: np.ndarray) -> tuple[np.ndarray, bool]:
+    """One merged clockwise polygon of any size by EarClippingLarge (one work-item: a CPU device's compiled C; on a
+    GPU one thread is slow, the host is the better choice there): (triangles (T, 3) int32 local indices, whether it
+    is covered). The grid has about 4 cells per vertex."""
+    pts = np.ascontiguousarray(polygon, np.float64).reshape(-1, 2)
+    n = len(pts)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    grid = int(min(2048, max(1, np.ceil(2.0 * np.sqrt(n)))))
+    extent = float(max(hi - lo)) or 1.0
+    program = runtime.program("ear_clipping", MAX_VERTICES=MAX_BATCH_VERTICES, ROBUST=1)
+    pts_d = runtime.to_device(pts)
+    ints = [runtime.zeros(size, np.int32) for size in (n, n, n + 1, n + 1)]
+    flags = [runtime.zeros(n, np.uint8) for _ in range(2)]
+    cell_head = runtime.to_device(np.full(grid * grid, -1, np.int32))
+    cell_next = runtime.zeros(n, np.int32)
+    triangles = runtime.to_device(np.full(max(n - 2, 1) * 3, -1, np.int32))
+    result = runtime.zeros(2, np.int32)
+    kernel = program.kernel("EarClippingLarge")
+    kernel(
+        (1,), (1,), pts_d, np.int32(n), *ints, *flags, cell_head, cell_next, _double2(lo),
+        np.float64(grid / extent), np.int32(grid), triangles, result,
+    )  # fmt: skip
+    emitted, done = result.get().tolist()
+    return triangles.get().reshape(-1, 3)[:emitted], bool(done)
+
+
+def _double2(v) -> np.ndarray:
+    import pyopencl.cltypes as cltypes
+
+    return cltypes.make_double2(float(v[0]), float(v[1]))
+
+
 def triangulate_batch(runtime, outlines) -> tuple[list[np.ndarray], int]:
     """Real outlines (each a list of rings) triangulated in one launch: the robust pre-pass on the host
     (``ec.merged_polygons``), the robust EarClipping kernel on every merged polygon of up to MAX_BATCH_VERTICES
-    vertices, the host's robust clipper (``ec.clip_robust``, with its last-resort stage) on larger ones and on any
-    the kernel could not finish. Returns (per outline its triangles, (T, 3, 2) float64 corners, clockwise, y up;
-    how many merged polygons of kernel size the kernel left to the host)."""
+    vertices, EarClippingLarge on larger ones on a CPU device, the host's robust clipper (``ec.clip_robust``, with
+    its last-resort stage) on larger ones on a GPU and on any the kernels could not finish. Returns (per outline
+    its triangles, (T, 3, 2) float64 corners, clockwise, y up; how many merged polygons a kernel tried and left to
+    the host)."""
     merged = [ec.merged_polygons(rings) for rings in outlines]
     flat = [(k, poly) for k, polys in enumerate(merged) for poly in polys]
     small = [i for i, (_, poly) in enumerate(flat) if len(poly) <= MAX_BATCH_VERTICES]
@@ -311,11 +344,17 @@ def triangulate_batch(runtime, outlines) -> tuple[list[np.ndarray], int]:
                 start = offsets[j] - 2 * j
                 found[flat[i][0]].append(points[triangles[start : start + counts[j]]])
     done = {small[j] for j in range(len(small)) if finished[j]} if small else set()
-    for i, (k, poly) in enumerate(flat):
-        if i not in done:
-            local, _ = ec.clip_robust(poly)
-            found[k].append(poly[np.asarray(local, np.int64).reshape(-1, 3)])
     left = len(small) - len(done)
+    for i, (k, poly) in enumerate(flat):
+        if i in done:
+            continue
+        covered = False
+        if len(poly) > MAX_BATCH_VERTICES and not runtime.is_gpu:
+            local, covered = ear_clip_large(runtime, poly)
+            left += not covered
+        if not covered:
+            local, _ = ec.clip_robust(poly)
+        found[k].append(poly[np.asarray(local, np.int64).reshape(-1, 3)])
     return [np.concatenate(f) if f else np.zeros((0, 3, 2)) for f in found], left
 
 
