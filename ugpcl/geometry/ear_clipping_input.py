@@ -180,6 +180,40 @@ def save_rings(path, rings) -> None:
     Path(path).write_text(json.dumps({"rings": [np.asarray(r, float).tolist() for r in rings]}))
 
 
+def real_world_outlines(count: int, seed: int = 0) -> list[list[np.ndarray]]:
+    """``count`` outlines (each a list of rings) of the kinds real data holds, in equal shares: letters with their
+    counters (DejaVu Sans), building footprints (rectilinear, collinear points on the walls, a repeated point, a
+    courtyard sharing a stretch of wall), ponds with islands (one touching the shore at a vertex) and plots with
+    holes on aligned rows. Each merges to polygons of at most 64 vertices (the batch kernel's limit)."""
+    rng = np.random.default_rng(seed)
+    letters = [r for c in "aBdegopqADOPQR8&%" if (r := glyph_rings(c, 1.0))]
+    letters = [r for r in letters if max(map(len, merged_polygons(r))) <= 64]
+    out: list[list[np.ndarray]] = []
+    for k in range(count):
+        kind = k % 4
+        if kind == 0:
+            out.append(letters[k // 4 % len(letters)])
+        elif kind == 1:
+            w, h, d = rng.uniform(6, 12), rng.uniform(6, 12), rng.uniform(2, 4)
+            wall = [[0, 0], [0, h / 2], [0, h], [d, h], [d, d], [w / 2, d], [w, d], [w, 0], [w, 0], [w / 2, 0]]
+            yard = [[w, d / 4], [w, d / 2], [w - d / 3, d / 2], [w - d / 3, d / 4]]
+            out.append([np.asarray(wall, float), np.asarray(yard, float)])
+        elif kind == 2:
+            angle = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+            shore = np.column_stack([np.cos(angle), np.sin(angle)]) * (10 + rng.uniform(-0.5, 0.5, (24, 1)))
+            tip = shore[0]
+            rings = [shore, np.array([tip, tip * 0.6 + [0, 0.8], tip * 0.6 - [0, 0.8]])]
+            a = np.linspace(0, 2 * np.pi, 8, endpoint=False)
+            rings.append(np.column_stack([np.cos(a), np.sin(a)]) * 2.0 + [-3.0, 0.0] + rng.uniform(-0.5, 0.5, (8, 2)))
+            out.append(rings)
+        else:
+            plot = [np.array([[0, 0], [0, 6], [12, 6], [12, 0]], float)]
+            corners = [(x, y) for x in (2.0, 5.0, 8.0) for y in (1.0, 4.0)]  # holes on aligned rows
+            plot += [np.array([[x, y], [x, y + 1], [x + 1, y + 1], [x + 1, y]]) for x, y in corners]
+            out.append(plot)
+    return out
+
+
 def glyph_batch(count: int, max_vertices: int) -> list[np.ndarray]:
     """``count`` glyph polygons: the merged outlines of the letters a-z and A-Z (DejaVu Sans, em 1) that have at most
     ``max_vertices`` vertices, repeated (the batch kernel's workload)."""
