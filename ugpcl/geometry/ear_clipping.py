@@ -12,9 +12,14 @@ host in float64, following the chapter's ``Triangulation.cs`` step by step:
    ``EarClipper``) and answers as the book's scan over all of them does.
 3. ``constrained_delaunay`` (not in the book): Lawson edge flips over every edge that is not an input ring edge.
 
+``variant="robust"`` (the default, ``triangulate_robust``; not in the book) puts ``ear_clipping_prepass.prepare`` in
+front of step 1-2 (exact nesting and bridges, touching and pinched rings, repeated points, local self-intersections)
+and gives the clipper two rules (``EarClipper(robust=True)``: ``corner_blocks``, ``_flat``) and a last-resort stage
+(``finish``); docs/chapters/16-ear-clipping.md tabulates what each fixes.
+
 ``variant="book"`` sorts the rings by area and the holes by right-most x with the book's comparator
 ``FloorToInt(b - a)`` (differences below 1 compare equal), in the order .NET's List.Sort leaves such ties;
-``variant="fixed"`` (default) sorts both exactly and stably. Holes whose right-most x differ by less than 1 can then
+``variant="fixed"`` sorts both exactly and stably. Holes whose right-most x differ by less than 1 can then
 be bridged in the wrong order in the book, and a bridge can cross a hole that is not merged yet.
 """
 
@@ -28,6 +33,9 @@ from dataclasses import dataclass, field
 from functools import cmp_to_key
 
 import numpy as np
+
+from .ear_clipping_prepass import in_cone, inside, prepare, segment_blocked
+from .exact import orient, ring_sign
 
 log = logging.getLogger(__name__)
 
@@ -604,8 +612,6 @@ class EarClipper:
         """Where the polygon visits a point more than once, the new edge corner -> target must leave the corner
         inside the region's own angle at that visit (exact signs; the region is on the right of this clockwise
         ring, so the ring is read backwards for ``in_cone``)."""
-        from .ear_clipping_prepass import in_cone
-
         pts = self.points
         before, after = self.prev[corner], self.next[corner]
         if any(np.array_equal(pts[n], pts[corner]) for n in (before, after)):
@@ -711,8 +717,6 @@ class EarClipper:
         spike, a repeated point), so v covers nothing and is unlinked without a triangle. A part retraced both ways
         once the area around it is clipped would otherwise pass ear tests it must not. A vertex on a straight run
         is not flat (``straight``: it is, for the last three) and is clipped later, with a neighbour."""
-        from .exact import orient
-
         a, b, c = self.points[self.prev[v]], self.points[v], self.points[self.next[v]]
         return orient(a, b, c) == 0 and (straight or float(np.dot(a - b, c - b)) >= 0.0)
 
@@ -824,8 +828,6 @@ def triangulate_robust(rings, record: bool = False) -> Triangulation:
     """The robust default: ``ear_clipping_prepass.prepare`` (cleaned rings, touching points shared, rings split where
     they touch themselves, exact nesting and bridges), then the chapter's clipper with the robust corner rule
     (``EarClipper.corner_blocks``) and, should the ear list run dry, ``finish`` (the last-resort stage)."""
-    from .ear_clipping_prepass import prepare
-
     rings = [np.asarray(r, np.float64).reshape(-1, 2) for r in rings]
     prepared = prepare(rings)
     every = np.concatenate(rings) if rings else np.zeros((0, 2))
@@ -901,9 +903,6 @@ def finish(points: np.ndarray, cycle: list[int], depth: int = 0) -> tuple[list[t
     diagonal that lies inside it and meets no edge (one exists in every simple polygon, exact signs find it) and
     each half is clipped again; a polygon that visits a point twice with both loops winding its way (pieces that
     only touch) is first split there. Returns (triangles, whether all of the area was covered)."""
-    from .ear_clipping_prepass import _blocked, in_cone
-    from .exact import orient, ring_sign
-
     cycle = list(cycle)
     changed = True
     while changed and len(cycle) > 3:
@@ -943,7 +942,7 @@ def finish(points: np.ndarray, cycle: list[int], depth: int = 0) -> tuple[list[t
                     continue
                 if not in_cone(pts[j - 1], pts[j], pts[(j + 1) % n], pts[i]):
                     continue
-                if _blocked(pts[i], pts[j], a_edges, b_edges):
+                if segment_blocked(pts[i], pts[j], a_edges, b_edges):
                     continue
                 lo, hi = min(i, j), max(i, j)
                 first, second = ccw[lo : hi + 1], ccw[hi:] + ccw[: lo + 1]
@@ -966,8 +965,6 @@ def nesting_levels(rings) -> list[int]:
     """How many other rings enclose each ring, from the rings alone (each tested against every other by its first
     vertex strictly inside or outside it, exact signs; ``ear_clipping_prepass.inside``): the input's own nesting,
     independent of the clipper's tree. Rings may touch, not cross."""
-    from .ear_clipping_prepass import inside
-
     arrays = [np.asarray(r, float).reshape(-1, 2) for r in rings]
     return [sum(inside(ring, other) for j, other in enumerate(arrays) if j != i) for i, ring in enumerate(arrays)]
 
@@ -981,8 +978,6 @@ def ring_area(ring) -> float:
     """The area a ring encloses: |shoelace area|, or for a ring with local self-intersections (edges one apart that
     cross) the sum over the loops they cut it into, each counted once whichever way it winds (a bowtie's two
     lobes)."""
-    from .exact import orient
-
     pts = [p for p in np.asarray(ring, np.float64).reshape(-1, 2)]
     total, i = 0.0, 0
     while len(pts) >= 4 and i < len(pts):
@@ -1009,8 +1004,6 @@ def triangle_signed_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.nda
 def merged_polygons(rings, variant: str = "robust") -> list[np.ndarray]:
     """The host's bridging without the clipping: one simple clockwise polygon per group (the batch kernel's input)."""
     if variant == "robust":
-        from .ear_clipping_prepass import prepare
-
         return prepare(rings).polygons
     result = triangulate(rings, variant)
     o = result.group_offsets

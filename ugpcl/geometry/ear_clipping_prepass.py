@@ -357,7 +357,7 @@ def in_cone(prev, at, nxt, target) -> bool:
     return not (orient(at, target, nxt) >= 0 and orient(target, at, prev) >= 0)
 
 
-def _blocked(m, p, a: np.ndarray, b: np.ndarray) -> bool:
+def segment_blocked(m, p, a: np.ndarray, b: np.ndarray) -> bool:
     """The segment m-p meets one of the edges a[i]-b[i] anywhere but at a shared end (exact)."""
     lo, hi = np.minimum(m, p), np.maximum(m, p)
     near = (np.maximum(a, b) >= lo).all(axis=1) & (np.minimum(a, b) <= hi).all(axis=1)
@@ -423,7 +423,7 @@ def _bridge(merged: np.ndarray, bridged: np.ndarray, hole: np.ndarray, others: l
             continue
         if not in_cone(hole_prev, m, hole_next, p):
             continue
-        if _blocked(m, p, a, b):
+        if segment_blocked(m, p, a, b):
             continue
         turned = np.concatenate([hole[m_index:], hole[:m_index]])
         points = np.concatenate([merged[: i + 1], turned, turned[:1], merged[i : i + 1], merged[i + 1 :]])
