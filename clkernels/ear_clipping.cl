@@ -6,6 +6,8 @@
 //   1. EarClipping  points, offsets -> triangles, triangle_counts: per polygon the book's InitializeVertices (the
 //                   first FIFO ear list), then EarClipping (emit the head ear's (prev, ear, next), unlink it,
 //                   CheckVertex on both neighbours) until 3 vertices are left or the ear list runs dry
+//   2. EarClippingLarge  points -> triangles, result: one polygon of any size by one work-item (the robust clipper,
+//                   the ring, the ear list and a grid of the vertices in global memory; see its section below)
 // Build defines: MAX_VERTICES = the most vertices one polygon may have (ugpcl: 64); the index ring and the ear list
 // live in private arrays of that length. ROBUST = 1 for the robust default's clipper (not in the book; the host's
 // EarClipper(robust=True)): a vertex at an ear's corner blocks it when the ring enters the triangle there, and

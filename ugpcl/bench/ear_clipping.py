@@ -19,7 +19,7 @@ and the kernels' rows are float64 arithmetic and branches timed with their trans
 an FP32 rate only, so no limit of the device applies to them."""
 DISTINCT = 1000
 """The batches are this many distinct outlines (pre-pass run once on each), each placed again at other offsets."""
-LARGE_ON_GPU = 10_000
+LARGE_ON_GPU = 1_000
 """EarClippingLarge is one work-item: on a GPU it runs for polygons up to this size only (one thread is slow)."""
 
 
@@ -50,7 +50,7 @@ def bench(runtime, sizes=None) -> list[dict]:
         row("star", len(ring), 1, "host pipeline (robust)", host)
         if not runtime.is_gpu or n <= LARGE_ON_GPU:
             polygon = ec.merged_polygons([ring])[0]
-            large = seconds_per_call(lambda p=polygon: ear_clip_large(runtime, p), queue, max_calls=3 if once else 100)
+            large = seconds_per_call(lambda p=polygon: ear_clip_large(runtime, p), queue, max_calls=2 if once else 100)
             row("star", len(ring), 1, "EarClippingLarge kernel", large)
         earcut = seconds_per_call(lambda r=ring, e=ends: mapbox_earcut.triangulate_float64(r, e), queue)
         row("star", len(ring), 1, "mapbox_earcut", earcut)
