@@ -354,11 +354,19 @@ def test_repeated_points_are_reported(runtime, tmp_path):
     assert code == 0 and len(err) == 1 and "1 duplicate points merged" in err[0] and "(0 % uncovered)" in err[0]
 
 
-def test_rings_that_cross_are_noted_by_the_api_and_refused_from_a_file(runtime, tmp_path):
+def test_rings_that_cross_are_diagnosed_and_refused_from_a_file(runtime, tmp_path):
+    """A file with crossing rings is refused; the API runs ``diagnose`` when a result falls short (the sweep is
+    O(n^2) at worst, so not on every call) and notes the crossing."""
+    from ugpcl.geometry.ear_clipping_prepass import CROSSING, diagnose
+
     crossing = [square(0, 0, 4), [[1, 1], [5, 2], [2, 3]]]  # the hole leaves the outer ring through its side
-    assert any("cross" in what for what in ec.triangulate(crossing).altered)
     touching_across = [square(0, 0, 4), [[2, 0], [3, -1], [3.5, 0], [3, 1]]]  # through the bottom at two vertices
-    assert any("cross" in what for what in ec.triangulate(touching_across).altered)
+    assert diagnose(crossing) == {CROSSING: 1} and diagnose(touching_across) == {CROSSING: 1}
+    assert diagnose(THREE_HOLES) == {} and diagnose(CASES["a hole touching a hole and the outer ring"][0]) == {}
+    result = ec.triangulate(crossing)
+    covered = np.abs(ec.triangle_signed_areas(result.vertices, result.triangles)).sum()
+    short = covered != pytest.approx(ec.input_area(crossing, [lv + 1 for lv in ec.nesting_levels(crossing)]))
+    assert (CROSSING in result.altered) == (short or not result.complete.all())
     from ugpcl.scenes.ear_clipping import Params
 
     path = tmp_path / "rings.json"

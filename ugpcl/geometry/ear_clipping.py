@@ -34,7 +34,7 @@ from functools import cmp_to_key
 
 import numpy as np
 
-from .ear_clipping_prepass import in_cone, inside, prepare, segment_blocked
+from .ear_clipping_prepass import diagnose, in_cone, inside, prepare, segment_blocked
 from .exact import orient, ring_sign
 
 log = logging.getLogger(__name__)
@@ -846,6 +846,11 @@ def triangulate_robust(rings, record: bool = False) -> Triangulation:
         offsets.append(offset + len(polygon))
         complete.append(done)
     points = np.concatenate(vertices) if vertices else np.zeros((0, 2))
+    triangles_array = np.asarray(triangles, np.int32).reshape(-1, 3)
+    wanted = input_area(rings, [level + 1 for level in nesting_levels(rings)]) if rings else 0.0
+    covered = float(np.abs(triangle_signed_areas(points, triangles_array)).sum()) if len(points) else 0.0
+    if not all(complete) or abs(covered - wanted) > 1e-9 * abs(wanted):
+        prepared.notes.update(diagnose(rings))  # fell short: say so if the input is to blame
     first_loop = {}
     for k, ring in enumerate(prepared.loop_ring):
         first_loop.setdefault(ring, k)
@@ -859,7 +864,7 @@ def triangulate_robust(rings, record: bool = False) -> Triangulation:
         oriented[ring] = prepared.loops[k][::-1] if prepared.depth[k] % 2 else prepared.loops[k]
     return Triangulation(
         vertices=points,
-        triangles=np.asarray(triangles, np.int32).reshape(-1, 3),
+        triangles=triangles_array,
         uv=((points - lo) / span).astype(np.float32),
         group_offsets=np.asarray(offsets, np.int32),
         complete=np.asarray(complete, bool),

@@ -87,7 +87,8 @@ def _on_edges(rings: list[np.ndarray]) -> dict[tuple[int, int], list[np.ndarray]
     """Every vertex that lies on an edge of any ring strictly between its ends: {(ring, edge): [points]}.
 
     Candidates come from a grid of about one vertex per cell: each edge visits the cells it passes through (sampled
-    at half a cell, the corner-cut cells added), and meets the vertices bucketed there; the sign decides exactly."""
+    at most a cell apart, the corner-cut cells added), and meets the vertices bucketed there; the sign decides
+    exactly. A vertex met twice is found twice (the caller keeps one)."""
     points = np.concatenate(rings)
     ring_of = np.repeat(np.arange(len(rings)), [len(r) for r in rings])
     starts = np.concatenate([[0], np.cumsum([len(r) for r in rings])[:-1]])
@@ -105,18 +106,22 @@ def _on_edges(rings: list[np.ndarray]) -> dict[tuple[int, int], list[np.ndarray]
     order = np.argsort(keys, kind="stable")
     sorted_keys = keys[order]
     length = np.abs(b - a).max(axis=1)
-    steps = np.minimum(np.ceil(2.0 * length / size).astype(np.int64) + 1, 4 * cells)
+    steps = np.minimum(np.ceil(length / size).astype(np.int64) + 1, 2 * cells + 1)  # at most a cell apart
     edge = np.repeat(np.arange(len(a)), steps)
     t = (np.arange(len(edge)) - np.repeat(np.cumsum(steps) - steps, steps)) / np.repeat(np.maximum(steps - 1, 1), steps)
     samples = cell_of(a[edge] + t[:, None] * (b[edge] - a[edge]))
+    # samples at most a cell apart: the segment between two crosses one column and one row line at most, so the
+    # cells it passes are theirs and, on a diagonal move, the two corner cells
     same_edge = np.r_[edge[1:] == edge[:-1], False]
-    turn = np.flatnonzero(same_edge)
-    corner1 = np.column_stack([samples[turn, 0], samples[turn + 1, 1]])
-    corner2 = np.column_stack([samples[turn + 1, 0], samples[turn, 1]])
-    pair_edge = np.concatenate([edge, edge[turn], edge[turn]])
-    pair_key = np.concatenate([samples, corner1, corner2]) @ np.array([1, cells])
-    pairs = np.unique(pair_edge * (cells * cells) + pair_key)
-    pair_edge, pair_key = pairs // (cells * cells), pairs % (cells * cells)
+    moved = same_edge.copy()
+    moved[same_edge] = (samples[1:][same_edge[:-1]] != samples[:-1][same_edge[:-1]]).any(axis=1)
+    keep = np.r_[True, ~same_edge[:-1] | moved[:-1]]  # a sample in the cell of the one before adds nothing
+    diagonal = np.flatnonzero(same_edge)
+    diagonal = diagonal[(samples[diagonal] != samples[diagonal + 1]).all(axis=1)]
+    corner1 = np.column_stack([samples[diagonal, 0], samples[diagonal + 1, 1]])
+    corner2 = np.column_stack([samples[diagonal + 1, 0], samples[diagonal, 1]])
+    pair_edge = np.concatenate([edge[keep], edge[diagonal], edge[diagonal]])
+    pair_key = np.concatenate([samples[keep], corner1, corner2]) @ np.array([1, cells])
     first = np.searchsorted(sorted_keys, pair_key, "left")
     last = np.searchsorted(sorted_keys, pair_key, "right")
     counts = last - first
@@ -504,6 +509,19 @@ def weld(polygon: np.ndarray, bridged: np.ndarray) -> list[np.ndarray]:
 # }}}
 
 
+CROSSING = "rings that cross (invalid input: the result may cover the crossing wrongly)"
+"""The note of ``diagnose``."""
+
+
+def diagnose(rings) -> dict:
+    """Why a triangulation fell short, when the input is to blame: {CROSSING: 1} if rings cross (at interior points
+    of edges or where they touch), else {}. Run only then: the sweep costs up to n^2 / 2 edge pairs."""
+    kept = [c for r in rings if len(c := clean(r, {}))]
+    if kept and (intersection(kept) is not None or crossing_at_touches(kept) is not None):
+        return {CROSSING: 1}
+    return {}
+
+
 @dataclass
 class Prepared:
     polygons: list[np.ndarray] = field(default_factory=list)
@@ -526,9 +544,6 @@ def prepare(rings) -> Prepared:
     """The pre-pass: clean, split where rings touch, nest, orient, merge."""
     out = Prepared()
     cleaned = [clean(r, out.notes) for r in rings]
-    kept = [r for r in cleaned if len(r)]
-    if kept and (intersection(kept) is not None or crossing_at_touches(kept) is not None):
-        out.notes["rings that cross (invalid input: the result may cover the crossing wrongly)"] = 1
     out.loops, out.loop_ring = split_touching(cleaned, out.notes)
     out.parent = nest(out.loops)
     out.depth = depths(out.parent)
