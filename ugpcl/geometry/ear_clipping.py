@@ -971,7 +971,12 @@ def nesting_levels(rings) -> list[int]:
     vertex strictly inside or outside it, exact signs; ``ear_clipping_prepass.inside``): the input's own nesting,
     independent of the clipper's tree. Rings may touch, not cross."""
     arrays = [np.asarray(r, float).reshape(-1, 2) for r in rings]
-    return [sum(inside(ring, other) for j, other in enumerate(arrays) if j != i) for i, ring in enumerate(arrays)]
+    lo, hi = [a.min(axis=0) for a in arrays], [a.max(axis=0) for a in arrays]
+
+    def holds(j: int, i: int) -> bool:  # ring j encloses ring i (its bounding box first)
+        return bool((lo[j] <= lo[i]).all() and (hi[i] <= hi[j]).all()) and inside(arrays[i], arrays[j])
+
+    return [sum(holds(j, i) for j in range(len(arrays)) if j != i) for i in range(len(arrays))]
 
 
 def input_area(rings, levels) -> float:

@@ -444,13 +444,18 @@ def merge(outer: np.ndarray, holes: list[np.ndarray]) -> tuple[np.ndarray, np.nd
     merged, bridged = outer, np.zeros(len(outer), bool)
     waiting = sorted(range(len(holes)), key=lambda k: tuple(holes[k][np.lexsort((holes[k][:, 1], holes[k][:, 0]))[-1]]))
     lost = []
+    points = set(map(tuple, outer.tolist()))  # the polygon's points so far: which holes share one
+    hole_points = [set(map(tuple, h.tolist())) for h in holes]
     while waiting:
         spliced = False
         for k in list(waiting):
+            if points.isdisjoint(hole_points[k]):
+                continue
             joined = _splice_at_shared(merged, bridged, holes[k])
             if joined is not None:
                 (merged, bridged), spliced = joined, True
                 waiting.remove(k)
+                points |= hole_points[k]
         if spliced or not waiting:
             continue
         k = waiting.pop()  # the right-most M
@@ -459,6 +464,7 @@ def merge(outer: np.ndarray, holes: list[np.ndarray]) -> tuple[np.ndarray, np.nd
             lost.append(k)
         else:
             merged, bridged = joined
+            points |= hole_points[k]
     return merged, bridged, lost
 
 
