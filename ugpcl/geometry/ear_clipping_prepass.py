@@ -41,10 +41,33 @@ def _crossing_point(a, b, c, d) -> np.ndarray:
     return a + t * r
 
 
+def _needs_cleaning(ring: np.ndarray) -> bool:
+    """Whether ``clean`` would change the ring (all its tests at once, exact signs): a repeated point, a spike, or
+    two edges one apart that cross."""
+    if len(ring) < 4:
+        return True
+    a, b, c, d = ring, np.roll(ring, -1, axis=0), np.roll(ring, -2, axis=0), np.roll(ring, -3, axis=0)
+    if (a == b).all(axis=1).any():
+        return True
+    turn = orient_many(a[:, 0], a[:, 1], b[:, 0], b[:, 1], c[:, 0], c[:, 1])
+    if ((turn == 0) & (((a - b) * (c - b)).sum(axis=1) >= 0.0)).any():
+        return True
+    c2 = orient_many(a[:, 0], a[:, 1], b[:, 0], b[:, 1], d[:, 0], d[:, 1])
+    may = turn * c2 < 0
+    if not may.any():
+        return False
+    c3 = orient_many(c[may, 0], c[may, 1], d[may, 0], d[may, 1], a[may, 0], a[may, 1])
+    c4 = orient_many(c[may, 0], c[may, 1], d[may, 0], d[may, 1], b[may, 0], b[may, 1])
+    return bool((c3 * c4 < 0).any())
+
+
 def clean(ring: np.ndarray, notes: dict) -> np.ndarray:
     """Repeated points merged, local self-intersections cured, spikes dropped (``notes`` counts each); fewer than 3
     points left: an empty ring."""
-    pts = [p for p in np.asarray(ring, np.float64)]
+    ring = np.asarray(ring, np.float64).reshape(-1, 2)
+    if not _needs_cleaning(ring):  # the usual case, tested in numpy
+        return ring
+    pts = [p for p in ring]
     keep = [p for i, p in enumerate(pts) if not np.array_equal(p, pts[i - 1])] if len(pts) > 1 else pts
     notes["duplicate points merged"] = notes.get("duplicate points merged", 0) + len(pts) - len(keep)
     pts = keep
