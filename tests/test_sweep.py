@@ -253,3 +253,48 @@ def test_a_scheduler_that_is_not_dask_is_refused_in_one_line(capsys, monkeypatch
 
 
 # }}}
+
+
+def test_a_relative_out_lands_under_the_clients_folder_with_a_worker_started_elsewhere(capsys, tmp_path, monkeypatch):
+    """A real scheduler and worker (separate processes on 127.0.0.1, the worker in its own folder), a relative
+    --out given in the client's folder: every file lands under the client's folder, none in the worker's, and a
+    rerun runs nothing."""
+    import socket
+    import subprocess
+    import sys
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    client_dir, worker_dir = tmp_path / "client", tmp_path / "worker"
+    client_dir.mkdir()
+    worker_dir.mkdir()
+    address = f"tcp://127.0.0.1:{port}"
+    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
+    scheduler = subprocess.Popen(
+        [sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", str(port),
+         "--no-dashboard"], cwd=tmp_path, **quiet,
+    )  # fmt: skip
+    worker = subprocess.Popen(
+        [sys.executable, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1", "--no-dashboard",
+         "--local-directory", str(worker_dir)], cwd=worker_dir, **quiet,
+    )  # fmt: skip
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:  # the scheduler takes a second or two to listen
+            with socket.socket() as knock:
+                if knock.connect_ex(("127.0.0.1", port)) == 0:
+                    break
+            time.sleep(0.2)
+        monkeypatch.chdir(client_dir)
+        argv = [*BOIDS, "--seeds", "0-1", "--out", "runs", "--scheduler", address]
+        code, out, err = run(capsys, *argv)
+        assert code == 0 and "2 ok, 0 failed, 0 finished before" in out, err
+        assert sorted(p.name for p in landed(client_dir / "runs")) == ["seed=0.npz", "seed=1.npz"]
+        assert not list(worker_dir.rglob("*.npz")) and not (worker_dir / "runs").exists()
+        code, out, _ = run(capsys, *argv)
+        assert code == 0 and "0 ok, 0 failed, 2 finished before" in out, out
+    finally:
+        for process in (worker, scheduler):
+            process.terminate()
+            process.wait(timeout=30)

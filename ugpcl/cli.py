@@ -253,7 +253,7 @@ def cmd_sweep(args) -> int:
         raise UsageError(f"--mesh must be one of {', '.join(s[1:] for s in MESH_SUFFIXES)}, got {args.mesh!r}")
     if mesh_suffix and not hasattr(scene.simulation, "export_mesh"):
         raise UsageError(f"--mesh: scene {scene.name} makes no mesh")
-    out = Path(args.out)
+    out = Path(args.out).absolute()  # made absolute here: a worker started in another folder writes under this one
     output_path(str(out / INDEX), "--out", (".csv",))
     common = {"steps": args.steps, "dt": dt, "png_size": parse_size(args.png_size), "device": args.device}
     jobs = plan(scene, grid, sets, seeds, out, args.png, mesh_suffix, **common)
