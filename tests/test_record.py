@@ -84,14 +84,17 @@ def test_a_failed_recording_leaves_no_video(tmp_path, name):
 
 @pytest.mark.parametrize("suffix", [".mp4", ".webp"])
 def test_run_records_a_video_every_k_steps(capsys, tmp_path, suffix):
-    """--video x.mp4 (H.264, read back with imageio) or x.webp (looping, read back with Pillow): steps 0, 5 .. 20."""
+    """--video x.mp4 (H.264, read back with imageio) or x.webp (looping, read back with Pillow): steps 0, 5 .. 20;
+    --every is the .npz's history alone (none asked here)."""
     video = tmp_path / f"boids{suffix}"
     code, text = run_cli(
-        capsys, "run", "boids", "--steps", "20", "--every", "5", "--video", str(video), "--png-size", "160x120",
+        capsys, "run", "boids", "--steps", "20", "--video-every", "5", "--video", str(video), "--png-size", "160x120",
         "--set", "max_object_num=256", "--out", str(tmp_path / "boids.npz"), "--quiet",
     )  # fmt: skip
     assert code == 0, text
     assert f"wrote {video} (5 frames)" in text  # steps 0, 5, 10, 15, 20
+    with np.load(tmp_path / "boids.npz") as saved:
+        assert not any(k.endswith("_history") for k in saved.files)
     if suffix == ".mp4":
         frames = iio.imread(video)
     else:
@@ -106,7 +109,7 @@ def test_run_records_a_video_every_k_steps(capsys, tmp_path, suffix):
 def test_run_writes_frames_whose_last_is_the_png_of_the_run(capsys, tmp_path):
     folder, png = tmp_path / "frames", tmp_path / "last.png"
     code, text = run_cli(
-        capsys, "run", "boids", "--steps", "6", "--every", "3", "--frames", str(folder), "--png", str(png),
+        capsys, "run", "boids", "--steps", "6", "--video-every", "3", "--frames", str(folder), "--png", str(png),
         "--png-size", "160x120", "--set", "max_object_num=256", "--out", str(tmp_path / "b.npz"), "--quiet",
     )  # fmt: skip
     assert code == 0, text
@@ -121,3 +124,34 @@ def test_run_refuses_bad_recording_paths_before_running(capsys, tmp_path):
     (tmp_path / "file").write_text("")
     code, text = run_cli(capsys, "run", "boids", "--frames", str(tmp_path / "file"))
     assert code == 2 and "is a file" in text
+
+
+def test_the_video_rate_and_a_compressed_npz(capsys, tmp_path):
+    """--fps sets the WebP's frame duration; --compress writes the same arrays deflated."""
+    video, plain, small = tmp_path / "b.webp", tmp_path / "plain.npz", tmp_path / "small.npz"
+    common = ["run", "boids", "--steps", "2", "--set", "max_object_num=256", "--quiet", "--png-size", "80x60"]
+    code, text = run_cli(capsys, *common, "--video", str(video), "--fps", "10", "--out", str(plain))
+    assert code == 0, text
+    frames, info = webp_frames(video)
+    assert len(frames) == 3 and info["durations"] == [100, 100, 100]  # ms a frame at 10 fps
+    code, text = run_cli(capsys, *common, "--compress", "--out", str(small))
+    assert code == 0, text
+    with np.load(plain) as a, np.load(small) as b:
+        assert sorted(a.files) == sorted(b.files)
+        for key in ("position", "velocity"):
+            np.testing.assert_array_equal(a[key], b[key])
+    assert small.stat().st_size < plain.stat().st_size
+
+
+@pytest.mark.parametrize(
+    "argv, says",
+    [
+        (["--video-every", "2"], "--video-every: give --video or --frames"),
+        (["--fps", "10"], "--fps: give --video"),
+        (["--video", "x.webp", "--fps", "0"], "--fps must be in [1, 240], got 0"),
+        (["--video", "x.webp", "--video-every", "0"], "--video-every must be in [1, 1073741824], got 0"),
+    ],
+)
+def test_recording_options_are_checked(capsys, tmp_path, argv, says):
+    code, text = run_cli(capsys, "run", "boids", "--out", str(tmp_path / "x.npz"), *argv)
+    assert code == 2 and says in text, text

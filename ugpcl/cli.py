@@ -36,7 +36,9 @@ from .io import (
     written_whole,
 )
 from .options import (
+    MAX_FPS,
     MAX_SEED,
+    MAX_STEPS_BETWEEN_FRAMES,
     ArgumentParser,
     HelpFormatter,
     parse_sets,
@@ -141,8 +143,16 @@ def cmd_run(args) -> int:
         raise UsageError(f"--seed must be in [0, {MAX_SEED}], got {seed}")
     if args.every is not None and args.every < 1:
         raise UsageError(f"--every must be >= 1, got {args.every}")
-    if args.every and not scene.simulation.history and not (args.video or args.frames):
-        raise UsageError(f"--every: scene {scene.name} keeps no history arrays")
+    if args.every and not scene.simulation.history:
+        raise UsageError(f"--every: scene {scene.name} keeps no history arrays (--video-every sets a video's frames)")
+    if args.video_every is not None and not 1 <= args.video_every <= MAX_STEPS_BETWEEN_FRAMES:
+        raise UsageError(f"--video-every must be in [1, {MAX_STEPS_BETWEEN_FRAMES}], got {args.video_every}")
+    if args.fps is not None and not 1 <= args.fps <= MAX_FPS:
+        raise UsageError(f"--fps must be in [1, {MAX_FPS}], got {args.fps}")
+    if args.video_every is not None and not (args.video or args.frames):
+        raise UsageError("--video-every: give --video or --frames (it sets their frames)")
+    if args.fps is not None and not args.video:
+        raise UsageError("--fps: give --video (it sets the video's frame rate)")
     if args.checkpoint_every is not None and args.checkpoint_every < 1:
         raise UsageError(f"--checkpoint-every must be >= 1, got {args.checkpoint_every}")
     try:
@@ -179,11 +189,11 @@ def cmd_run(args) -> int:
     diverged = None
     try:
         checkpoints = (args.checkpoint_every, save_checkpoint) if args.checkpoint_every else None
-        history = args.every if scene.simulation.history else None  # --every of a --video alone sets its frames
+        history = args.every if scene.simulation.history else None
         if recording:
             from .viewer.offscreen import renderer
-            from .viewer.record import Recorder
-        with Recorder(recording) if recording else nullcontext() as recorder:
+            from .viewer.record import VIDEO_FPS, Recorder
+        with Recorder(recording, fps=args.fps or VIDEO_FPS) if recording else nullcontext() as recorder:
             frames = None
             if recorder:
                 render = renderer(scene, sim, size)
@@ -193,7 +203,7 @@ def cmd_run(args) -> int:
                     if args.frames:  # each frame is in place as soon as it is added
                         outputs.note(recording, f"{recorder.frames} frames in {recording}")
 
-                frames = (args.every or 1, add_frame)
+                frames = (args.video_every or 1, add_frame)
             state = run_steps(sim, args.steps, dt, history, args.quiet, checkpoints, frames)
         if recorder:
             outputs.note(recording, f"{recording} ({recorder.frames} frames)")
@@ -210,7 +220,8 @@ def cmd_run(args) -> int:
     # leaves every earlier file as it was; a diverged state (--keep-diverged) is written as asked, without pictures
     with outputs:
         arrays = record(sim, state, dt)
-        outputs.prepare("--out", out, save_npz(arrays), None if diverged else arrays, sim.may_be_infinite)
+        writer = save_npz(arrays, compress=args.compress)
+        outputs.prepare("--out", out, writer, None if diverged else arrays, sim.may_be_infinite)
         if not diverged:
             prepare_pictures(outputs, sim, mesh, png, size)
         outputs.commit()
@@ -343,15 +354,18 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--every", type=int, default=None, metavar="K", help="also keep every K-th state as *_history")
     p.add_argument("--out", default=None, help="output .npz (default: out/SCENE.npz)")
+    p.add_argument("--compress", action="store_true", help="write the .npz compressed (smaller, slower to write)")
     p.add_argument("--png", default=None, help="also render the final state to this PNG (offscreen, EGL)")
     p.add_argument("--png-size", default="800x600", help="PNG size WxH (also of --video and --frames frames)")
     p.add_argument(
         "--video",
         default=None,
         metavar="FILE.mp4|.webp",
-        help="record the run offscreen to an MP4 (30 fps) or a looping animated WebP: the first state, then every "
-        "--every K steps (default 1)",
+        help="record the run offscreen to an MP4 or a looping animated WebP: the first state, then every "
+        "--video-every K steps (default 1), at --fps frames a second (default 30)",
     )
+    p.add_argument("--video-every", type=int, default=None, metavar="K", help="a frame every K steps (default 1)")
+    p.add_argument("--fps", type=int, default=None, help="frames per second of the --video (default 30)")
     p.add_argument(
         "--frames", default=None, metavar="DIR", help="as --video, to DIR/frame-000000.png, frame-000001.png ..."
     )
@@ -360,7 +374,7 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="no progress bar (on a terminal) or progress lines every few seconds (otherwise) on stderr",
     )
-    p.add_argument("--mesh", default=None, help="export the scene's geometry (.obj/.ply) where it makes one")
+    p.add_argument("--mesh", default=None, help="export the scene's geometry (.obj, .ply or .glb) where it makes one")
     p.add_argument(
         "--checkpoint-every",
         type=int,

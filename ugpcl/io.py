@@ -201,12 +201,13 @@ def write_npz(path: Path, arrays: dict) -> None:
         np.savez(f, **arrays)
 
 
-def save_npz(arrays: dict):
-    """A writer for ``Outputs.prepare``: ``arrays`` as an uncompressed .npz."""
+def save_npz(arrays: dict, compress: bool = False):
+    """A writer for ``Outputs.prepare``: ``arrays`` as a .npz (``compress``: deflated, ``np.savez_compressed``)."""
+    save = np.savez_compressed if compress else np.savez
 
     def write(path: Path) -> None:
         with open(path, "wb") as f:
-            np.savez(f, **arrays)
+            save(f, **arrays)
 
     return write
 

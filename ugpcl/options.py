@@ -14,6 +14,10 @@ from .scene import Params, Scene
 
 MAX_SEED = 2**63 - 1
 """Largest --seed: the .npz stores it as int64."""
+MAX_FPS = 240
+"""Largest --fps of a --video."""
+MAX_STEPS_BETWEEN_FRAMES = 1 << 30
+"""Largest --video-every."""
 
 
 class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
