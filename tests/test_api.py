@@ -53,3 +53,21 @@ def test_create_validates_and_update_resets_only_for_non_live_params():
 def test_scenes_lists_every_scene_with_its_summary():
     listed = ugpcl.list_scenes()
     assert "boids" in listed and "flocking" in listed["boids"] and len(listed) >= 20
+
+
+def test_update_says_when_it_resets(runtime):
+    """A live parameter changes in place; any other resets the simulation, with a ParameterReset naming it."""
+    import warnings
+
+    from ugpcl.scene import ParameterReset
+
+    sim = ugpcl.create("boids", device=runtime, max_object_num=256)
+    sim.step()
+    sim.step()
+    live = sorted(sim.params.live_names())[0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert sim.update(**{live: getattr(sim.params, live)}) is False  # nothing changed
+    with pytest.warns(ParameterReset, match="max_object_num is not live"):
+        assert sim.update(max_object_num=512) is True
+    assert sim.steps == 0

@@ -21,6 +21,7 @@ import json
 import math
 import re
 import typing
+import warnings
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -205,6 +206,7 @@ class Params:
                 "name": f.name,
                 "default": show_value(f.default),
                 "range": _describe_range(f.metadata) if f.metadata else "any",
+                "live": "yes" if f.metadata.get("live") else "",
                 "meaning": docs.get(f.name, ""),
             }
             for f in dataclasses.fields(cls)
@@ -348,13 +350,27 @@ class Simulation:
     def resumable(cls) -> bool:
         return cls.restore is not Simulation.restore
 
-    def update(self, **changes) -> None:
-        """Change parameters (validated); reset unless every changed one is live (``param(..., live=True)``)."""
+    def update(self, **changes) -> bool:
+        """Change parameters (validated); reset unless every changed one is live (``param(..., live=True)``, the
+        ``live`` column of ``ugpcl params``). A reset is said with a ``ParameterReset`` warning naming the fields
+        (the viewer, which resets on purpose, ignores it). Returns whether it reset."""
         new = self.params.replace(**changes)
         changed = {k for k in changes if getattr(new, k) != getattr(self.params, k)}
         self.params = new
-        if changed - new.live_names():
+        fixed = sorted(changed - new.live_names())
+        if fixed:
             self.reset()
+            warnings.warn(
+                f"{', '.join(fixed)} {'is' if len(fixed) == 1 else 'are'} not live: {type(self).__module__} was reset "
+                f"(step {self.steps}, time {self.time:g})",
+                ParameterReset,
+                stacklevel=2,
+            )
+        return bool(fixed)
+
+
+class ParameterReset(UserWarning):
+    """``Simulation.update`` changed a parameter that is not live, so the simulation started again."""
 
 
 def check_dt(dt: float | None, default: float) -> float:

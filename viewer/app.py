@@ -14,6 +14,7 @@ import ctypes
 import os
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import moderngl
@@ -25,7 +26,7 @@ from ugpcl.io import UsageError, written_whole
 from ugpcl.options import ArgumentParser, HelpFormatter, parse_sets, parse_size, quiet_broken_pipe, scene_named
 from ugpcl.run import Diverged, Watch
 from ugpcl.runtime import BuildError, DeviceError, Runtime
-from ugpcl.scene import show_value
+from ugpcl.scene import ParameterReset, show_value
 
 from .gl import TextOverlay, read_pixels, save_png
 from .imgui_renderer import ImguiRenderer
@@ -438,6 +439,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--device", default=None, metavar="NAME", help="OpenCL device (as ugpcl run --device)")
     parser.add_argument("--keys", action="store_true", help="print the scene's key table (Markdown) and exit")
     args = parser.parse_args(argv)
+    warnings.filterwarnings("ignore", category=ParameterReset)  # the window resets on purpose (the panel says so)
     try:
         scene = scene_named(args.scene)
         if args.keys:
