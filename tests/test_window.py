@@ -194,6 +194,16 @@ def test_view_opens_a_window_and_obeys_keys(display, tmp_path):
     assert pixels.shape == (240, 320, 3)
     assert foreground(pixels, (0.192, 0.302, 0.475)).mean() > 0.05, "the screenshot shows no boids or overlay"
     assert "wrote out/boids-" in err
+    assert " - INFO - " not in err, "moderngl-window's INFO lines without -v"
+
+
+@pytest.mark.gl
+def test_the_window_flags_reach_moderngl_window(display, tmp_path):
+    """--samples (and the other window flags) are moderngl-window's; -v shows its INFO lines (the GL context)."""
+    with viewer_app(display, tmp_path, "boids", "--set", "max_object_num=256", "--size", "320x240", "--samples",
+                    "2", "-v") as window:  # fmt: skip
+        window.quit()
+    assert " - INFO - " in window.err and "ModernGL" in window.err
 
 
 @pytest.mark.gl

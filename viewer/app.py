@@ -11,6 +11,7 @@ starts at its ``Scene.interactive`` sizes, so that it runs at interactive rates;
 from __future__ import annotations
 
 import ctypes
+import logging
 import os
 import sys
 import time
@@ -428,6 +429,22 @@ class ViewerWindow(mglw.WindowConfig):
     # }}}
 
 
+def window_flags(args) -> list[str]:
+    """ugpcl-view's window options as moderngl-window's own flags."""
+    flags = ["--fullscreen"] if args.fullscreen else []
+    if args.vsync is not None:
+        flags += ["--vsync", args.vsync]
+    if args.samples is not None:
+        if not 0 <= args.samples <= 16:
+            raise UsageError(f"--samples must be in [0, 16], got {args.samples}")
+        flags += ["--samples", str(args.samples)]
+    if args.hidden:
+        flags += ["--hidden", "true"]
+    if args.backend:
+        flags += ["--backend", args.backend]
+    return flags
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = ArgumentParser(
         prog="ugpcl-view", description="Watch a scene in a window.", formatter_class=HelpFormatter, allow_abbrev=False
@@ -438,6 +455,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--size", default="1280x720", help="window size WxH")
     parser.add_argument("--device", default=None, metavar="NAME", help="OpenCL device (as ugpcl run --device)")
     parser.add_argument("--keys", action="store_true", help="print the scene's key table (Markdown) and exit")
+    parser.add_argument("-v", "--verbose", action="store_true", help="moderngl-window's INFO lines (GL context)")
+    window = parser.add_argument_group("window (moderngl-window's own flags, passed on)")
+    window.add_argument("--fullscreen", action="store_true", help="open fullscreen")
+    window.add_argument("--vsync", choices=("true", "false"), default=None, help="wait for the display's refresh")
+    window.add_argument("--samples", type=int, default=None, help="multisampling samples of the window")
+    window.add_argument("--hidden", action="store_true", help="start the window hidden")
+    window.add_argument("--backend", default=None, help="context backend (egl: headless)")
     args = parser.parse_args(argv)
     warnings.filterwarnings("ignore", category=ParameterReset)  # the window resets on purpose (the panel says so)
     try:
@@ -461,7 +485,8 @@ def main(argv: list[str] | None = None) -> int:
         launch = {"scene": scene, "params": params, "seed": args.seed, "runtime": runtime, "sized": sized}
         ViewerWindow.launch = launch
         # moderngl-window parses its own flags from sys.argv unless given a (non-empty) list of them
-        mglw.run_window_config(ViewerWindow, args=["--size", f"{width}x{height}"])
+        ViewerWindow.log_level = logging.INFO if args.verbose else logging.WARNING
+        mglw.run_window_config(ViewerWindow, args=["--size", f"{width}x{height}", *window_flags(args)])
     except (UsageError, ValueError) as err:
         print(f"ugpcl-view: error: {err}", file=sys.stderr)
         return 2
