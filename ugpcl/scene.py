@@ -330,6 +330,14 @@ class Simulation:
         as a warning (``--strict``, or the chapter's own ``strict`` parameter: exit 1)."""
         return ""
 
+    picture = None
+    """How ``_repr_png_`` draws a simulation: set by the ``ugpcl`` package (``ugpcl.render``), which may import the
+    viewer; this module may not."""
+
+    def _repr_png_(self) -> bytes | None:
+        """Jupyter shows a simulation as its picture (640 x 360, offscreen); None (text instead) without one."""
+        return type(self).picture(self) if type(self).picture else None
+
     @property
     def strict(self) -> bool:
         """The chapter's own ``strict`` parameter where it has one: an incomplete result is then an error."""
