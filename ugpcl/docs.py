@@ -126,15 +126,10 @@ def keys_table(name: str) -> str:
 
 def all_keys() -> str:
     from ugpcl.viewer.app import MOUSE_HELP, SHARED_KEYS
-    from ugpcl.viewer.views import view_class
 
     parts = ["Every scene:", "", markdown_table([{"key": f"`{k.key}`", "action": k.help} for k in SHARED_KEYS])]
-    parts += ["", f"and the {MOUSE_HELP}.", ""]
-    for name, scene in scenes().items():
-        keys = view_class(scene).keys
-        if keys:
-            rows = [{"key": f"`{k.key}`", "action": k.help} for k in keys]
-            parts += [f"`{name}`:", "", markdown_table(rows), ""]
+    parts += ["", f"and the {MOUSE_HELP}. A scene's own keys are on its chapter page, and"]
+    parts += ["`ugpcl-view SCENE --keys` prints them."]
     return "\n".join(parts).rstrip()
 
 
