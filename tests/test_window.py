@@ -337,3 +337,35 @@ def test_record_keys_write_an_mp4_and_a_png_sequence_of_the_window(display, tmp_
     background = view_class(scenes()["boids"]).background
     assert foreground(last, background, 40).mean() > 0.01, "the recorded frame shows no boids"
     assert (first != last).any(), "the boids did not move while recording"
+
+
+@pytest.mark.gl
+def test_esc_closes_an_open_dropdown_first_and_r_applies_pending_edits(display, tmp_path):
+    """Esc with the preset dropdown open closes the dropdown and the window stays; R then applies a pending edit
+    (a non-live parameter changed in the panel) as "reset to apply" does; a second Esc quits."""
+    with viewer_app(display, tmp_path, "ear_clipping", "--size", "1100x700") as window:  # wide: the panel is open
+        window.wait(lambda: any(line.startswith("widget preset ") for line in window.lines), "the preset dropdown")
+        x0, y0, x1, y1 = map(int, next(line for line in window.lines if line.startswith("widget preset ")).split()[2:])
+        window.mouse("mousemove", "--window", "WINDOW", str((x0 + x1) // 2), str((y0 + y1) // 2), "click", "1",
+                     event="release")  # fmt: skip
+        window.wait(lambda: window.count("popup open") >= 1, "the dropdown to open")
+        window.key("esc", frames=3)
+        window.wait(lambda: window.count("popup closed") >= 1, "the dropdown to close")
+        assert window.app.poll() is None, "Esc with a dropdown open closed the window"
+        # text_size is not live: typed into the panel it waits; R applies it
+        x0, y0, x1, y1 = map(
+            int, next(line for line in window.lines if line.startswith("widget text_size ")).split()[2:]
+        )
+        window.mouse("mousemove", "--window", "WINDOW", str((x0 + x1) // 2), str((y0 + y1) // 2), event="move")
+        xdotool(window.env, "keydown", "ctrl")
+        window.mouse("click", "1", event="release")
+        xdotool(window.env, "keyup", "ctrl")
+        xdotool(window.env, "key", "ctrl+a")
+        xdotool(window.env, "type", "6")
+        xdotool(window.env, "key", "Return")
+        window.wait_frames(3)
+        window.key("r", frames=3)
+        window.quit()
+    err = window.err
+    assert "ugpcl-view: text_size = 6 (pending: reset to apply)" in err, err
+    assert "ugpcl-view: reset with text_size=6" in err, err

@@ -38,7 +38,7 @@ from .views import Key, View, create_view, view_class
 SHARED_KEYS = (
     Key("space", "pause / run", "toggle_pause"),
     Key("n", "single step (while paused)", "single_step"),
-    Key("r", "reset (re-seed)", "reset"),
+    Key("r", "reset (re-seed), with the panel's pending edits applied", "reset"),
     Key("s", "screenshot to out/<scene>-<time>.png", "screenshot"),
     Key("h", "panel on/off: HUD, parameters (ctrl+click a slider to type), keys", "toggle_panel"),
     Key("f9", "record the window to out/<scene>-<time>.mp4 (again: stop)", "toggle_video"),
@@ -100,6 +100,7 @@ class ViewerWindow(mglw.WindowConfig):
         self.overlay = TextOverlay(self.ctx)
         self.wnd.title = f"ugpcl - {self.view.title or self.scene.name}  (H: panel)"
         self.key_names = self._key_names()
+        self.wnd.exit_key = None  # Esc is the shared key table's "quit", which an open dropdown takes first
         imgui.create_context()
         imgui.get_io().set_ini_filename("")  # no imgui.ini left in the user's folder
         self.imgui = ImguiRenderer(self.wnd)
@@ -110,6 +111,8 @@ class ViewerWindow(mglw.WindowConfig):
         trace = os.environ.get(TRACE_ENV)
         self.trace_file = open(trace, "a", buffering=1) if trace else None  # noqa: SIM115 (open until the window closes)
         self.frames = 0
+        self.popup_open, self.close_popups = False, False  # a panel dropdown is open; Esc asked to close it
+        self.traced_widgets: dict[str, tuple] = {}  # where each widget was last said to be (the trace)
         sized = f"; sized for the CPU: {_assignments(self.sized)} (--set wins)" if self.sized else ""
         print(f"ugpcl-view: {self.scene.name} on {self.runtime.label}{sized}; H shows the panel", file=sys.stderr)
 
@@ -205,6 +208,9 @@ class ViewerWindow(mglw.WindowConfig):
         width, height = self.wnd.size
         imgui.get_io().delta_time = max(self.times["frame"], 1e-3)
         imgui.new_frame()
+        if self.close_popups:  # Esc while a dropdown was open: it closes, the window stays
+            imgui.internal.close_popups_except_modals()
+            self.close_popups = False
         panel_width = min(PANEL_WIDTH, width)
         imgui.set_next_window_pos((width - panel_width, 0), imgui.Cond_.always)
         imgui.set_next_window_size((panel_width, height), imgui.Cond_.always)
@@ -221,6 +227,11 @@ class ViewerWindow(mglw.WindowConfig):
             imgui.push_item_width(-longest - 2 * imgui.get_style().item_inner_spacing.x)  # every name whole
             for widget in self.panel.widgets:
                 changed, value = draw_widget(imgui, widget, self.panel.value(widget.name))
+                if self.trace_file:  # where the widget is, for the window tests' clicks
+                    rect = (*map(int, imgui.get_item_rect_min()), *map(int, imgui.get_item_rect_max()))
+                    if self.traced_widgets.get(widget.name) != rect:
+                        self.traced_widgets[widget.name] = rect
+                        self.trace(f"widget {widget.name} {' '.join(map(str, rect))}")
                 if widget.name in self.panel.pending:
                     imgui.same_line()
                     imgui.text_colored((1.0, 0.8, 0.2, 1.0), "*")
@@ -232,6 +243,10 @@ class ViewerWindow(mglw.WindowConfig):
                 imgui.text_wrapped(f"{key:>6s}  {text}")
             imgui.text_wrapped(MOUSE_HELP)
         imgui.end()
+        popup = imgui.is_popup_open("", imgui.PopupFlags_.any_popup_id | imgui.PopupFlags_.any_popup_level)
+        if popup != self.popup_open:
+            self.popup_open = popup
+            self.trace(f"popup {'open' if popup else 'closed'}")
         imgui.render()
         self.imgui.render(imgui.get_draw_data())
 
@@ -307,7 +322,10 @@ class ViewerWindow(mglw.WindowConfig):
         # otherwise ImGui never sees the keys: Tab would move its focus into a slider's text field, and the
         # scenes' own Tab, arrows and space are theirs
         elif action == self.wnd.keys.ACTION_PRESS:
-            self.press(self.key_names.get(key))
+            if self.key_names.get(key) == "esc" and self.show_panel and self.popup_open:
+                self.close_popups = True  # Esc closes the open dropdown first, not the window
+            else:
+                self.press(self.key_names.get(key))
         if action == self.wnd.keys.ACTION_PRESS:
             self.trace(f"key {self.key_names.get(key)}")
 
@@ -385,6 +403,10 @@ class ViewerWindow(mglw.WindowConfig):
         self.paused, self.step_once = True, self.diverged is None
 
     def reset(self) -> None:
+        """R: the run starts again, with the panel's pending edits applied (as "reset to apply" does); edits the
+        device cannot hold stay pending, the panel saying why."""
+        if self.panel.pending:
+            self.apply_params()
         self.sim.reset()
         self.watch, self.diverged = Watch(self.sim), None
 
