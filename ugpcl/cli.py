@@ -23,6 +23,7 @@ import numpy as np
 import pyopencl as cl
 
 from . import __version__
+from .extras import require
 from .geometry.mesh_io import MESH_SUFFIXES
 from .io import (
     Outputs,
@@ -169,6 +170,13 @@ def cmd_run(args) -> int:
     if args.video is not None and args.frames is not None:
         raise UsageError("--video and --frames: give one (a run records one sequence)")
     recording = output_path(args.video, "--video", (".mp4", ".webp")) or output_folder(args.frames, "--frames")
+    if args.png or args.frames is not None or (args.video and args.video.lower().endswith(".webp")):
+        what = "--png" if args.png else "--frames" if args.frames is not None else "--video (WebP)"
+        require(what, "render", ("moderngl", "PIL"))
+    if args.video and args.video.lower().endswith(".mp4"):
+        require("--video (MP4)", "video")
+    if args.mesh and args.mesh.lower().endswith(".glb"):
+        require("--mesh (.glb)", "render", ("trimesh", "PIL"))
     mesh = output_path(args.mesh, "--mesh", MESH_SUFFIXES)
     size = parse_size(args.png_size)
     first_frame = recording / "frame-000000.png" if args.frames is not None else recording
@@ -244,6 +252,9 @@ def cmd_run(args) -> int:
 
 
 def cmd_sweep(args) -> int:
+    require("ugpcl sweep", "sweep")
+    if args.png:
+        require("--png", "render", ("moderngl", "PIL"))
     from .sweep import INDEX, Tally, check_run_count, parse_grid, parse_seeds, plan, sweep
 
     scene = scene_named(args.scene)
@@ -478,3 +489,15 @@ def main(argv: list[str] | None = None) -> int:
 
 if __name__ == "__main__":
     sys.exit(main())
+
+
+def view(argv: list[str] | None = None) -> int:
+    """``ugpcl-view``: the window, when the viewer extra is installed; else one line saying how to get it (exit 2)."""
+    try:
+        require("ugpcl-view", "viewer")
+    except UsageError as err:
+        print(f"ugpcl-view: error: {err}", file=sys.stderr)
+        return USAGE_ERROR
+    from .viewer.app import main as view_main
+
+    return view_main(argv)

@@ -196,7 +196,10 @@ def read_image(name: str, path, max_side: int, max_bytes: int) -> np.ndarray:
 
 def _decode_png(path, where: str) -> np.ndarray:
     import zlib
+    from importlib.util import find_spec
 
+    if find_spec("PIL") is None:
+        raise InputError(f"{where}: reading a PNG needs Pillow (the render extra): pip install 'ugpcl[render]'")
     from PIL import Image
 
     try:

@@ -17,6 +17,7 @@ bundled DejaVu Sans (the chapter names font outlines as the use).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from importlib.util import find_spec
 
 import numpy as np
 
@@ -69,6 +70,8 @@ class Params(BaseParams):
             raise ValueError(f"text must have 1 to {MAX_TEXT} characters, got {len(self.text)}")
         if self.input:
             load_rings(self.input)  # read and checked with the parameters (cached for the reset): one line
+        elif self.preset == "glyph" and find_spec("matplotlib") is None:
+            raise ValueError("preset=glyph needs matplotlib (the render extra): pip install 'ugpcl[render]'")
         elif self.preset == "glyph" and not glyph_rings(self.text, self.text_size):
             raise ValueError(f"text {self.text!r} has no glyph outlines to triangulate (preset=glyph)")
 
