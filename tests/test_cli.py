@@ -483,3 +483,29 @@ def test_resource_check_names_the_limit_it_hits():
 
 
 # }}}
+
+
+@pytest.mark.parametrize(
+    "command, option, accepted",
+    [
+        ("run", "--mesh", (".obj", ".ply", ".glb")),
+        ("sweep", "--mesh", (".obj", ".ply", ".glb")),
+        ("run", "--video", (".mp4", ".webp")),
+        ("run", "--out", (".npz",)),
+    ],
+)
+def test_help_names_every_format_an_option_takes(capsys, command, option, accepted):
+    """What `--help` says an option takes is what it takes: each suffix the help names writes, and the ones it
+    takes are named (the accepted list here is the code's own: MESH_SUFFIXES and the recorder's formats)."""
+    from ugpcl.geometry.mesh_io import MESH_SUFFIXES
+
+    if option == "--mesh":
+        assert tuple(MESH_SUFFIXES) == accepted
+    with pytest.raises(SystemExit):
+        main([command, "--help"])
+    lines = capsys.readouterr().out.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.lstrip().startswith(option + " "))
+    end = next((i for i in range(start + 1, len(lines)) if lines[i].lstrip().startswith("-")), len(lines))
+    said = " ".join(" ".join(lines[start:end]).split())  # the option's own entry in the options list
+    for suffix in accepted:
+        assert suffix in said or suffix.lstrip(".") in said.split(), f"{command} {option} help omits {suffix}: {said}"

@@ -56,6 +56,8 @@ from .stopping import StopWatch, Terminated
 from .table import format_table
 
 USAGE_ERROR, RUNTIME_ERROR, INTERRUPTED, TERMINATED = 2, 1, 130, 143
+MESH_FORMATS = ", ".join(MESH_SUFFIXES)
+"""The mesh formats as the help texts list them (every one ``--mesh`` takes)."""
 
 
 # {{{ commands
@@ -385,7 +387,7 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="no progress bar (on a terminal) or progress lines every few seconds (otherwise) on stderr",
     )
-    p.add_argument("--mesh", default=None, help="export the scene's geometry (.obj, .ply or .glb) where it makes one")
+    p.add_argument("--mesh", default=None, help=f"export the scene's geometry ({MESH_FORMATS}) where it makes one")
     p.add_argument(
         "--checkpoint-every",
         type=int,
@@ -427,7 +429,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--set", action="extend", nargs="+", metavar="NAME=VALUE", help="parameters every run shares")
     p.add_argument("--png", action="store_true", help="also render each final state to RUN.png (offscreen, EGL)")
     p.add_argument("--png-size", default="800x600", help="PNG size WxH")
-    p.add_argument("--mesh", default=None, metavar="EXT", help="also export each run's geometry as RUN.EXT (obj, ply)")
+    p.add_argument(
+        "--mesh", default=None, metavar="EXT", help=f"also export each run's geometry as RUN.EXT ({MESH_FORMATS})"
+    )
     p.add_argument(
         "--scheduler",
         default=None,
