@@ -255,10 +255,8 @@ def test_a_scheduler_that_is_not_dask_is_refused_in_one_line(capsys, monkeypatch
 # }}}
 
 
-def test_a_relative_out_lands_under_the_clients_folder_with_a_worker_started_elsewhere(capsys, tmp_path, monkeypatch):
-    """A real scheduler and worker (separate processes on 127.0.0.1, the worker in its own folder), a relative
-    --out given in the client's folder: every file lands under the client's folder, none in the worker's, and a
-    rerun runs nothing."""
+def start_scheduler(tmp_path):
+    """A dask scheduler process on a free port of 127.0.0.1, listening: (process, address, port)."""
     import socket
     import subprocess
     import sys
@@ -266,26 +264,86 @@ def test_a_relative_out_lands_under_the_clients_folder_with_a_worker_started_els
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]
-    client_dir, worker_dir = tmp_path / "client", tmp_path / "worker"
-    client_dir.mkdir()
-    worker_dir.mkdir()
-    address = f"tcp://127.0.0.1:{port}"
     quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
     scheduler = subprocess.Popen(
         [sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", str(port),
          "--no-dashboard"], cwd=tmp_path, **quiet,
     )  # fmt: skip
-    worker = subprocess.Popen(
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:  # the scheduler takes a second or two to listen
+        with socket.socket() as knock:
+            if knock.connect_ex(("127.0.0.1", port)) == 0:
+                break
+        time.sleep(0.2)
+    return scheduler, f"tcp://127.0.0.1:{port}"
+
+
+def start_worker(address: str, folder: Path, *flags):
+    import subprocess
+    import sys
+
+    folder.mkdir(exist_ok=True)
+    return subprocess.Popen(
         [sys.executable, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1", "--no-dashboard",
-         "--local-directory", str(worker_dir)], cwd=worker_dir, **quiet,
+         "--local-directory", str(folder), *flags], cwd=folder, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
     )  # fmt: skip
+
+
+def test_with_no_live_worker_the_sweep_says_so_and_waits_or_ends(capsys, tmp_path, monkeypatch):
+    """The only worker (no nanny to restart it) is killed mid-sweep: after NO_WORKER_SECONDS (2 s here) the sweep
+    says so in one line and waits; a new worker finishes it. With --no-worker-timeout it ends instead (exit 1)."""
+    import ugpcl.sweep
+
+    monkeypatch.setattr(ugpcl.sweep, "NO_WORKER_SECONDS", 2.0)
+    scheduler, address = start_scheduler(tmp_path)
+    workers = []
     try:
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline:  # the scheduler takes a second or two to listen
-            with socket.socket() as knock:
-                if knock.connect_ex(("127.0.0.1", port)) == 0:
-                    break
-            time.sleep(0.2)
+        for give_up in (False, True):
+            out = tmp_path / f"runs-{give_up}"
+            argv = ["sweep", "boids", "--set", "max_object_num=1024", "--steps", "300", "--quiet", "--seeds", "0-5"]
+            argv += ["--out", str(out), "--scheduler", address] + (["--no-worker-timeout"] if give_up else [])
+            workers.append(start_worker(address, tmp_path / f"w{len(workers)}", "--no-nanny"))
+            result: dict = {}
+            thread = threading.Thread(target=lambda a=argv, r=result: r.setdefault("code", main(a)))
+            thread.start()
+            deadline = time.monotonic() + 120
+            while not ok_rows(out) and time.monotonic() < deadline:
+                time.sleep(0.05)
+            workers[-1].kill()
+            workers[-1].wait(timeout=30)
+            if give_up:
+                thread.join(timeout=60)
+                assert not thread.is_alive() and result["code"] == 1
+                err = capsys.readouterr().err
+                assert "no live worker for 2 s with" in err and "(--no-worker-timeout)" in err, err
+            else:
+                deadline = time.monotonic() + 60
+                said = ""
+                while "no live worker" not in said and time.monotonic() < deadline:
+                    time.sleep(0.2)
+                    said += capsys.readouterr().err
+                assert "ugpcl: sweep: no live worker for 2 s" in said and thread.is_alive(), said
+                workers.append(start_worker(address, tmp_path / f"w{len(workers)}"))
+                thread.join(timeout=120)
+                assert not thread.is_alive() and result["code"] == 0
+                assert len(ok_rows(out)) == 6
+                workers[-1].kill()  # the next sweep starts with a single worker again
+                workers[-1].wait(timeout=30)
+    finally:
+        for process in [*workers, scheduler]:
+            process.kill()
+            process.wait(timeout=30)
+
+
+def test_a_relative_out_lands_under_the_clients_folder_with_a_worker_started_elsewhere(capsys, tmp_path, monkeypatch):
+    """A real scheduler and worker (separate processes on 127.0.0.1, the worker in its own folder), a relative
+    --out given in the client's folder: every file lands under the client's folder, none in the worker's, and a
+    rerun runs nothing."""
+    client_dir, worker_dir = tmp_path / "client", tmp_path / "worker"
+    client_dir.mkdir()
+    scheduler, address = start_scheduler(tmp_path)
+    worker = start_worker(address, worker_dir)
+    try:
         monkeypatch.chdir(client_dir)
         argv = [*BOIDS, "--seeds", "0-1", "--out", "runs", "--scheduler", address]
         code, out, err = run(capsys, *argv)

@@ -282,7 +282,7 @@ def cmd_sweep(args) -> int:
     common = {"steps": args.steps, "dt": dt, "png_size": parse_size(args.png_size), "device": args.device}
     jobs = plan(scene, grid, sets, seeds, out, args.png, mesh_suffix, **common)
     args.outputs = Tally(out / INDEX)  # what a stopped sweep says it wrote
-    tally = sweep(jobs, out, args.scheduler, args.device, args.quiet, args.outputs)
+    tally = sweep(jobs, out, args.scheduler, args.device, args.quiet, args.outputs, args.no_worker_timeout)
     print(f"{out / INDEX}: {tally.ok} ok, {tally.failed} failed, {tally.skipped} finished before")
     return RUNTIME_ERROR if tally.failed else 0
 
@@ -440,6 +440,11 @@ def build_parser() -> argparse.ArgumentParser:
         "or two on a CPU device)",
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar or progress lines on stderr")
+    p.add_argument(
+        "--no-worker-timeout",
+        action="store_true",
+        help="end the sweep (exit 1) when no worker has been alive for 30 s; without it the sweep says so and waits",
+    )
 
     p = command("bench", "time scenes and print throughput tables", cmd_bench, [device])
     p.add_argument("scene", nargs="*", help="copy, peak, launch or chapter stems (none: all)")

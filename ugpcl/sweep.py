@@ -313,8 +313,72 @@ class Tally:
         return f"{self.ok + self.failed} runs finished ({self.failed} failed), {self.skipped} before; see {self.index}"
 
 
+NO_WORKER_SECONDS = 30.0
+"""A sweep with no live worker this long says so (and, with --no-worker-timeout, ends)."""
+
+
+class Idle:
+    """Watches a cluster that has stopped finishing runs: after NO_WORKER_SECONDS without a live worker it says so
+    once on stderr (one line) and, with ``give_up``, ends the sweep; a worker that joins again starts it afresh."""
+
+    def __init__(self, client, give_up: bool):
+        self.client, self.give_up = client, give_up
+        self.since: float | None = None
+        self.said = False
+
+    def check(self, waiting: int) -> None:
+        if self.client.scheduler_info().get("workers"):
+            self.since, self.said = None, False
+            return
+        now = time.monotonic()
+        self.since = self.since or now
+        if now - self.since < NO_WORKER_SECONDS or self.said:
+            return
+        self.said = True
+        if self.give_up:
+            left = f"no live worker for {NO_WORKER_SECONDS:g} s with {waiting} runs left"
+            raise RuntimeError(f"{left} (--no-worker-timeout)")
+        print(
+            f"ugpcl: sweep: no live worker for {NO_WORKER_SECONDS:g} s, {waiting} runs waiting; start a worker, or "
+            "Ctrl-C (the index keeps what finished)",
+            file=sys.stderr,
+            flush=True,
+        )
+
+
+def _result(future, idle: Idle, waiting: int):
+    """A finished future's result: its data may sit on a worker that has just died, and then the run is done again
+    somewhere, so the wait is in steps during which ``idle`` looks for live workers."""
+    from distributed import TimeoutError as Timeout
+
+    while True:
+        try:
+            return future.result(timeout=1.0)
+        except Timeout:
+            idle.check(waiting)
+
+
+def _as_they_finish(futures, idle: Idle, waiting: int):
+    """The futures as they finish; between them, about once a second, ``idle`` looks for live workers."""
+    while not futures.is_empty():
+        batch = futures.next_batch(block=False)
+        if not batch:
+            idle.check(waiting)
+            time.sleep(1.0 if idle.since else 0.05)
+            continue
+        for future in batch:
+            waiting -= 1
+            yield future
+
+
 def sweep(
-    jobs: list[Job], out: Path, scheduler: str | None, device: str | None, quiet: bool, tally: Tally | None = None
+    jobs: list[Job],
+    out: Path,
+    scheduler: str | None,
+    device: str | None,
+    quiet: bool,
+    tally: Tally | None = None,
+    no_worker_timeout: bool = False,
 ) -> Tally:
     """Run the jobs not finished yet on a Dask cluster (``scheduler``'s, or a LocalCluster made for this sweep),
     keeping ``out/index.csv`` current; ``tally`` (made here when not given) counts the runs skipped, ok and failed."""
@@ -351,11 +415,12 @@ def sweep(
         # keys of this sweep's own: a cluster that still holds an earlier sweep's results must run the job again
         by_key = {f"ugpcl-sweep-{job.name}-{time.time_ns()}": job for job in todo}
         futures = as_completed(client.map(run_job, list(by_key.values()), key=list(by_key)))
+        idle = Idle(client, no_worker_timeout)
         with progress(f"sweep {todo[0].scene}", len(todo), quiet, unit="run") as bar:
-            for future in futures:
+            for future in _as_they_finish(futures, idle, len(todo) - tally.ok - tally.failed):
                 job = by_key[future.key]
                 try:
-                    row = future.result()
+                    row = _result(future, idle, len(todo) - tally.ok - tally.failed)
                 except Exception as err:  # noqa: BLE001 - the task itself failed (a worker lost too often)
                     row = {"run": job.name, "scene": job.scene, "seed": job.seed, "steps": job.steps}
                     row.update(
