@@ -5,6 +5,7 @@ they were chosen."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from ugpcl.registry import scenes
@@ -30,3 +31,22 @@ def test_scenes_too_slow_at_book_size_have_cpu_sizes_that_run(runtime, name):
     sim.step()
     runtime.finish()
     assert sim.steps == 1
+
+
+def test_the_huds_frame_parts_never_exceed_the_frame():
+    """FrameTimes: frames of random lengths, each with its simulation and drawing inside it (and, as on a real
+    screen, a first frame with no parts yet): the averaged sim + draw never exceeds the averaged frame."""
+    from ugpcl.viewer.app import FrameTimes
+
+    rng = np.random.default_rng(0)
+    times, now = FrameTimes(), 0.0
+    for k in range(500):
+        times.start(now)
+        frame = float(rng.choice([0.001, 0.016, 0.3])) * rng.uniform(0.5, 2.0)
+        if k:  # the first frame reports no parts (as a window's first frame may)
+            split = rng.dirichlet([1.0, 1.0, 1.0]) * frame
+            times.parts(float(split[0]), float(split[1]))
+        now += frame
+        if times.samples:
+            assert times.sim + times.draw <= times.frame * (1 + 1e-12), (k, times.frame, times.sim, times.draw)
+    assert times.samples == 498 and times.frame > 0

@@ -71,6 +71,31 @@ def keys_markdown(scene) -> str:
     return "\n".join(lines)
 
 
+class FrameTimes:
+    """The HUD's running averages (one exponential weight, SMOOTHING) of a frame's time and of the simulation's and
+    the drawing's share of it. Each sample is one whole frame, from its start to the next frame's start, with the
+    parts measured inside it, so the averaged parts never add up to more than the averaged whole."""
+
+    def __init__(self):
+        self.frame = self.sim = self.draw = 0.0  # seconds
+        self.samples = 0
+        self._start: float | None = None
+        self._parts: tuple[float, float] | None = None
+
+    def start(self, now: float) -> None:
+        """A frame starts at ``now``: the one before it is complete."""
+        if self._start is not None and self._parts is not None:
+            weight = 1.0 if self.samples == 0 else SMOOTHING
+            for name, value in zip(("frame", "sim", "draw"), (now - self._start, *self._parts), strict=True):
+                setattr(self, name, getattr(self, name) + weight * (value - getattr(self, name)))
+            self.samples += 1
+        self._start, self._parts = now, None
+
+    def parts(self, sim: float, draw: float) -> None:
+        """The current frame's simulation and drawing time."""
+        self._parts = (sim, draw)
+
+
 class ViewerWindow(mglw.WindowConfig):
     """One scene in a window. ``launch`` (scene, params, seed) is set by ``main`` before the window opens."""
 
@@ -106,7 +131,7 @@ class ViewerWindow(mglw.WindowConfig):
         self.imgui = ImguiRenderer(self.wnd)
         self.panel = Panel(self.sim, launch["params"])
         self.show_panel = self.wnd.size[0] >= PANEL_OPEN_FROM
-        self.times = {"frame": 0.0, "sim": 0.0, "draw": 0.0}  # running averages in seconds (the HUD)
+        self.times = FrameTimes()  # the HUD's split of a frame
         self.recorder: Recorder | None = None
         trace = os.environ.get(TRACE_ENV)
         self.trace_file = open(trace, "a", buffering=1) if trace else None  # noqa: SIM115 (open until the window closes)
@@ -147,6 +172,7 @@ class ViewerWindow(mglw.WindowConfig):
 
     def on_render(self, time_: float, frame_time: float) -> None:
         start = time.perf_counter()
+        self.times.start(start)
         if not self.paused or self.step_once:
             dt = self.sim.default_dt
             if self.view.max_frame_dt is not None and frame_time > 0:
@@ -168,7 +194,7 @@ class ViewerWindow(mglw.WindowConfig):
             self.recorder.add(read_pixels(self.wnd.fbo))
         if self.show_panel:
             self.ctx.finish()
-        self._average(frame_time, stepped - start, time.perf_counter() - stepped)
+        self.times.parts(stepped - start, time.perf_counter() - stepped)
         self.overlay.set_lines(self._overlay_lines())
         self.overlay.draw(self.wnd.buffer_size)
         if self.show_panel:
@@ -181,17 +207,14 @@ class ViewerWindow(mglw.WindowConfig):
         if self.trace_file:
             self.trace_file.write(line + "\n")
 
-    def _average(self, frame: float, sim: float, draw: float) -> None:
-        for key, value in (("frame", frame), ("sim", sim), ("draw", draw)):
-            old = self.times[key]
-            self.times[key] = value if old == 0.0 else old + SMOOTHING * (value - old)
-
     def hud_lines(self) -> list[str]:
         """Frame rate, where a frame's time goes, the device, steps and simulated time."""
-        ms = {key: 1000.0 * value for key, value in self.times.items()}
-        fps = 1000.0 / ms["frame"] if ms["frame"] > 0 else 0.0
+        t = self.times
+        fps = 1.0 / t.frame if t.frame > 0 else 0.0
+        other = max(t.frame - t.sim - t.draw, 0.0)
         lines = [
-            f"{fps:5.1f} fps  {ms['frame']:6.1f} ms/frame: sim {ms['sim']:.1f}, draw {ms['draw']:.1f}",
+            f"{fps:5.1f} fps  {1e3 * t.frame:6.1f} ms/frame: sim {1e3 * t.sim:.1f}, draw {1e3 * t.draw:.1f}, "
+            f"other {1e3 * other:.1f}",
             f"device: {self.runtime.label}",
             f"step {self.sim.steps}  sim time {self.sim.time:.2f} s",
         ]
@@ -206,7 +229,7 @@ class ViewerWindow(mglw.WindowConfig):
     def draw_panel(self) -> None:
         """The ImGui window at the right: HUD, apply buttons, one widget per parameter, keys."""
         width, height = self.wnd.size
-        imgui.get_io().delta_time = max(self.times["frame"], 1e-3)
+        imgui.get_io().delta_time = max(self.times.frame, 1e-3)
         imgui.new_frame()
         if self.close_popups:  # Esc while a dropdown was open: it closes, the window stays
             imgui.internal.close_popups_except_modals()
