@@ -351,7 +351,7 @@ def test_view_draws_boids_where_they_are(runtime, gl):
     sim.set_boids(position, rng.normal(size=(n, 3)))
     view = create_view(scene, gl, sim)
     view.show_box = False
-    camera = view.make_camera()
+    camera = view.book_camera()  # close up: the first view (make_camera) is the whole box from outside
     size = (160, 120)
     camera.aspect = size[0] / size[1]
     view.upload()

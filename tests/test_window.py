@@ -369,3 +369,22 @@ def test_esc_closes_an_open_dropdown_first_and_r_applies_pending_edits(display, 
     err = window.err
     assert "ugpcl-view: text_size = 6 (pending: reset to apply)" in err, err
     assert "ugpcl-view: reset with text_size=6" in err, err
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("name", ["boids", "stable_fluids_2d", "ear_clipping"])
+def test_with_the_panel_open_the_subject_is_whole_beside_it(display, tmp_path, name):
+    """A window wide enough opens with its panel: the scene is drawn in the rest of the window, so its subject
+    (the box of boids, the ink stroke, the nested rings) lies whole left of the panel, clear of its edge."""
+    with viewer_app(display, tmp_path, name, "--size", "1100x650") as window:
+        window.wait(lambda: window.sim_time >= 3.0, "3 s of simulated time")  # the stroke has drawn its ink
+        pixels = window.screenshot(name)
+        window.quit()
+    scene_width = 1100 - 400  # the panel is 400 pixels wide
+    background = view_class(scenes()[name]).background
+    subject = foreground(pixels[:, :scene_width], background, 40)
+    subject[:70] = False  # the status lines at the top left
+    columns = np.flatnonzero(subject.any(axis=0))
+    assert len(columns) > 100, f"{name}: almost nothing drawn left of the panel"
+    assert columns.max() < scene_width - 20, f"{name}: the subject runs under the panel (to column {columns.max()})"
+    assert columns.min() > 20, f"{name}: the subject is cut at the left edge"

@@ -187,9 +187,14 @@ class ViewerWindow(mglw.WindowConfig):
         stepped = time.perf_counter()
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.clear(*self.view.background, 1.0, depth=1.0)
+        width, height = self.scene_size()
+        self.camera.aspect = width / max(height, 1)
+        scale = self.wnd.buffer_size[0] / max(self.wnd.size[0], 1)
+        self.ctx.viewport = (0, 0, round(width * scale), self.wnd.buffer_size[1])  # the scene beside the panel
         if not self.diverged:  # a NaN state is not drawn: the message says what happened
             self.view.upload()
             self.view.draw(self.camera)
+        self.ctx.viewport = (0, 0, *self.wnd.buffer_size)
         if self.recorder:  # the scene alone: the overlay and the panel come after
             self.recorder.add(read_pixels(self.wnd.fbo))
         if self.show_panel:
@@ -322,8 +327,16 @@ class ViewerWindow(mglw.WindowConfig):
         return lines
 
     def on_resize(self, width: int, height: int) -> None:
-        self.camera.aspect = width / max(height, 1)
+        self.camera.aspect = self.scene_size()[0] / max(height, 1)
         self.imgui.resize(width, height)
+
+    def scene_size(self) -> tuple[int, int]:
+        """The part of the window the scene is drawn in (window pixels, from the left): all of it, or what the
+        open panel leaves, so the scene is whole and centred beside the panel."""
+        width, height = self.wnd.size
+        if self.show_panel:
+            width = max(width - min(PANEL_WIDTH, width), 1)
+        return width, height
 
     # }}}
 
@@ -384,7 +397,7 @@ class ViewerWindow(mglw.WindowConfig):
             return
         self.right_click = button == 2  # until the mouse moves: a right drag orbits instead
         if button == 1:  # a click without a move already paints/emits/pushes in the 2D scenes
-            w, h = self.wnd.size
+            w, h = self.scene_size()
             self.view.on_drag(self.camera, x / w, 1.0 - y / h, 0.0, 0.0)
 
     def on_mouse_drag_event(self, x: int, y: int, dx: int, dy: int) -> None:
@@ -392,7 +405,7 @@ class ViewerWindow(mglw.WindowConfig):
         self.imgui.mouse_drag_event(x, y, dx, dy)
         if self.in_panel:
             return
-        w, h = self.wnd.size
+        w, h = self.scene_size()
         self.right_click = False
         if self.wnd.mouse_states.left:
             self.view.on_drag(self.camera, x / w, 1.0 - y / h, dx / w, -dy / h)
@@ -406,7 +419,7 @@ class ViewerWindow(mglw.WindowConfig):
             self.in_panel = False
             return
         if button == 2 and self.right_click:
-            w, h = self.wnd.size
+            w, h = self.scene_size()
             self.view.on_right_click(self.camera, x / w, 1.0 - y / h)
         self.view.on_release(self.camera)
 

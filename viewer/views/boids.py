@@ -41,6 +41,10 @@ class View(BaseView):
         self.saved_weights: dict[str, float] = {}
 
     def make_camera(self):
+        """The first view: the whole 32^3 box from outside, as the pictures show it (``book_camera``: the book's)."""
+        return self.png_camera()
+
+    def book_camera(self):
         return OrbitCamera(target=(0.0, 0.0, 0.0), distance=10.0)  # book: camera at (0, 0, -10), FOV 60
 
     def png_camera(self):
