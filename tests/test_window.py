@@ -277,9 +277,9 @@ def test_panel_opens_and_dragged_sliders_change_the_simulation(display, tmp_path
         window.mouse("mouseup", "1", event="release")
 
     with viewer_app(display, tmp_path, "boids", "--set", "max_object_num=512", "--size", "900x600") as window:
-        # the boids start as a ball and spread out: from 2 to 4 simulated seconds they cover 15 to 25 % of the scene's
-        # part of the window (1 boid: 0.5 %), before many fly out of view (about 1 % at 8 s); the max_speed drag
-        # below nearly stops them
+        # seen from outside the box (the wall box hidden), the 512 boids cover about 1 to 2 % of the scene's part of
+        # the window, one boid a few hundredths of that; the max_speed drag below nearly stops them
+        window.key("b")
         window.wait(lambda: window.sim_time >= 2.0, "2 s of simulated time")
         closed = window.screenshot("boids")
         window.key("h", frames=2)
@@ -308,7 +308,7 @@ def test_panel_opens_and_dragged_sliders_change_the_simulation(display, tmp_path
     scene = np.s_[40:, :500]  # left of the panel, below the status line
     background = view_class(scenes()["boids"]).background
     before, after = (foreground(shot[scene], background, 40).mean() for shot in (many, one))
-    assert before > 0.02 and after < before / 20, f"{before:.4f} -> {after:.4f} of the scene covered by boids"
+    assert before > 0.005 and after < before / 20, f"{before:.4f} -> {after:.4f} of the scene covered by boids"
 
 
 RECORDED_FRAMES = 6
