@@ -361,9 +361,10 @@ def test_esc_closes_an_open_dropdown_first_and_r_applies_pending_edits(display, 
         window.mouse("click", "1", event="release")
         xdotool(window.env, "keyup", "ctrl")
         xdotool(window.env, "key", "ctrl+a")
+        window.wait(lambda: window.count("typing on") >= 1, "the text field to take the keys")
         xdotool(window.env, "type", "6")
         xdotool(window.env, "key", "Return")
-        window.wait_frames(3)
+        window.wait(lambda: window.count("typing off") >= 1, "the text field to give the keys back")
         window.key("r", frames=3)
         window.quit()
     err = window.err

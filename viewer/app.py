@@ -137,6 +137,7 @@ class ViewerWindow(mglw.WindowConfig):
         self.trace_file = open(trace, "a", buffering=1) if trace else None  # noqa: SIM115 (open until the window closes)
         self.frames = 0
         self.popup_open, self.close_popups = False, False  # a panel dropdown is open; Esc asked to close it
+        self.typing = False  # a panel text field has the keys
         self.traced_widgets: dict[str, tuple] = {}  # where each widget was last said to be (the trace)
         sized = f"; sized for the CPU: {_assignments(self.sized)} (--set wins)" if self.sized else ""
         print(f"ugpcl-view: {self.scene.name} on {self.runtime.label}{sized}; H shows the panel", file=sys.stderr)
@@ -275,6 +276,10 @@ class ViewerWindow(mglw.WindowConfig):
         if popup != self.popup_open:
             self.popup_open = popup
             self.trace(f"popup {'open' if popup else 'closed'}")
+        typing = imgui.get_io().want_text_input  # keys go to a text field, not to the shortcuts
+        if typing != self.typing:
+            self.typing = typing
+            self.trace(f"typing {'on' if typing else 'off'}")
         imgui.render()
         self.imgui.render(imgui.get_draw_data())
 
