@@ -139,3 +139,54 @@ def build_kernel_source(runtime, source: str):
     """A ``Program`` built from ``source`` as a ``clkernels/`` file is (include path, checked launches): test kernels
     that exercise a header (the ``image.h`` twin checks)."""
     return runtime.program_from_source(source, "test_kernels.cl")
+
+
+def to_pixels(camera, points: np.ndarray, size) -> tuple[np.ndarray, np.ndarray]:
+    """World points (n, 3) through ``camera``'s projection and view: (pixel x y with pixel centres at integers and
+    the top row 0, in front of the camera)."""
+    w, h = size
+    clip = (camera.projection() @ camera.view() @ np.column_stack([points, np.ones(len(points))]).T).T
+    ndc = clip[:, :2] / clip[:, 3:4]
+    return np.column_stack([(ndc[:, 0] + 1) / 2 * w - 0.5, (1 - ndc[:, 1]) / 2 * h - 0.5]), clip[:, 3] > 0
+
+
+def rasterize_triangles(corners: np.ndarray, size) -> np.ndarray:
+    """(H, W) mask of the pixel centres inside any of the (t, 3, 2) pixel-space triangles (either winding): the
+    test's own rasterizer, to compare a drawn picture with a projection of the state."""
+    w, h = size
+    mask = np.zeros((h, w), bool)
+    for a, b, c in corners:
+        x0, y0 = np.floor(np.minimum(np.minimum(a, b), c)).astype(int)
+        x1, y1 = np.ceil(np.maximum(np.maximum(a, b), c)).astype(int)
+        x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w - 1), min(y1, h - 1)
+        if x0 > x1 or y0 > y1:
+            continue
+        ys, xs = np.mgrid[y0 : y1 + 1, x0 : x1 + 1]
+        e = np.stack([(q[0] - p[0]) * (ys - p[1]) - (q[1] - p[1]) * (xs - p[0]) for p, q in ((a, b), (b, c), (c, a))])
+        mask[y0 : y1 + 1, x0 : x1 + 1] |= (e >= 0).all(axis=0) | (e <= 0).all(axis=0)
+    return mask
+
+
+def rasterize_segments(ends: np.ndarray, size) -> np.ndarray:
+    """(H, W) mask of the pixels that (n, 2, 2) pixel-space segments pass through (sampled every half pixel)."""
+    w, h = size
+    mask = np.zeros((h, w), bool)
+    for p, q in ends:
+        t = np.linspace(0.0, 1.0, int(np.ceil(2 * np.linalg.norm(q - p))) + 2)[:, None]
+        x, y = np.round(p + t * (q - p)).astype(int).T
+        keep = (x >= 0) & (x < w) & (y >= 0) & (y < h)
+        mask[y[keep], x[keep]] = True
+    return mask
+
+
+def dilate(mask: np.ndarray, pixels: int = 1) -> np.ndarray:
+    """``mask`` grown by ``pixels`` in every direction (a square neighbourhood)."""
+    out = mask.copy()
+    for _ in range(pixels):
+        grown = out.copy()
+        grown[1:] |= out[:-1]
+        grown[:-1] |= out[1:]
+        grown[:, 1:] |= grown[:, :-1].copy()
+        grown[:, :-1] |= grown[:, 1:].copy()
+        out = grown
+    return out

@@ -8,7 +8,16 @@ import math
 
 import numpy as np
 import pytest
-from helpers import first_mismatch, foreground, render_view, run_cli
+from helpers import (
+    dilate,
+    first_mismatch,
+    foreground,
+    rasterize_segments,
+    rasterize_triangles,
+    render_view,
+    run_cli,
+    to_pixels,
+)
 
 from ugpcl.geometry import procedural as pm
 from ugpcl.geometry.mesh import (
@@ -314,6 +323,55 @@ def test_tree_counts_and_invariants(runtime):
     assert normals_agree_with_winding(m) >= 0.99  # skewed frames (the book's): a few rings are tilted
 
 
+BOOK_TREE_DATA = {  # TreeData's defaults in the sample (ProceduralTree.cs), the chapter's section 1.4.3
+    "length_attenuation": 0.9,
+    "radius_attenuation": 0.6,
+    "branches_min": 1,
+    "branches_max": 3,
+    "growth_angle_min": -15.0,
+    "growth_angle_max": 15.0,
+    "growth_angle_scale": 4.0,
+}
+
+
+def test_tree_follows_the_books_branching_law(runtime):
+    """The law of TreeBranch, checked on every branch of a forest against the chapter's rules written here: 1 to 3
+    children spread from the middle to the end of the parent (ratio = lerp(0.5, 1, i / (count - 1)), 1 for one
+    child), each starting on the parent's ring floor(ratio S) with length times lerp(1, 0.9, ratio) (0.90-0.95 of
+    the parent's) and its direction the parent's tangent there turned by qn qb, two turns about perpendicular axes
+    of at most scale 15 degrees each, scale = lerp(1, 4, 1 - generation / generations): so at most
+    acos(cos^2(15 scale)) from the tangent, and near that at the tips (60 degrees a turn)."""
+    sim = get("procedural_modeling").create(runtime, trees=16, generations=4)
+    p, b = sim.params, sim.branches
+    assert {k: getattr(p, k) for k in BOOK_TREE_DATA} == BOOK_TREE_DATA
+    S, G = p.height_segments, p.generations
+    tips_turn = []
+    for parent in np.flatnonzero(b.generation > 0):
+        children = np.flatnonzero(b.parent == parent)
+        count = len(children)
+        assert 1 <= count <= 3
+        ratios = [1.0] if count == 1 else [0.5 + 0.5 * i / (count - 1) for i in range(count)]
+        expected = sorted((b.length[parent] * (1 - 0.1 * r), int(math.floor(r * S))) for r in ratios)
+        got = []
+        for child in children:
+            ring = int(np.argmin(np.linalg.norm(b.positions[parent] - b.start[child], axis=1)))
+            assert np.linalg.norm(b.positions[parent, ring] - b.start[child]) < 1e-9
+            got.append((b.length[child], ring))
+            tangent = b.frames.tangent[parent, ring]
+            direction = (b.end[child] - b.start[child]) / b.length[child]
+            assert np.linalg.norm(b.end[child] - b.start[child]) == pytest.approx(b.length[child], rel=1e-9)
+            turn = math.degrees(math.acos(np.clip(direction @ tangent / np.linalg.norm(tangent), -1, 1)))
+            scale = 1 + 3 * (1 - b.generation[child] / G)
+            bound = math.degrees(math.acos(math.cos(math.radians(15 * scale)) ** 2))
+            assert turn <= bound + 1e-6, (child, turn, bound)
+            if b.generation[child] == 0:
+                tips_turn.append(turn)
+        np.testing.assert_allclose(sorted(got), expected, rtol=1e-9)
+        assert all(0.9 - 1e-12 <= length / b.length[parent] <= 0.95 + 1e-12 for length, _ in got)
+    # the tips turn up to 60 degrees about each axis (75.5 in all): with scale 1 they would stay under 21.1
+    assert len(tips_turn) > 200 and max(tips_turn) > 50.0
+
+
 def test_tree_is_seeded_and_the_same_alone_or_in_a_forest(runtime):
     scene = get("procedural_modeling")
     a, b = scene.create(runtime, 5), scene.create(runtime, 5)
@@ -348,18 +406,60 @@ def test_growth_clip_advances_with_time(runtime):
 # {{{ L-system
 
 
-def test_lsystem_segments_length_and_symmetry():
-    segments, level = pm.lsystem_segments(7, 1.0, 0.635, 30.0)
-    assert len(segments) == 127 and np.bincount(level).tolist() == [2**k for k in range(7)]
-    lengths = np.linalg.norm(segments[:, 1] - segments[:, 0], axis=1)
+def book_lsystem(depth: int, length: float, attenuation: float, angle: float) -> list[tuple]:
+    """LSystem.cs's DrawFractal written out with 4x4 matrices: draw M (0,0,0) -> M (0,len,0), then recurse with
+    M Translate(0,len,0) RotZ(-angle) and M Translate(0,len,0) RotZ(+angle), depth - 1, len attenuation."""
+    out = []
+
+    def rot_z(degrees):
+        c, s = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
+        return np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
+
+    def translate(y):
+        m = np.eye(4)
+        m[1, 3] = y
+        return m
+
+    def draw(m, depth, length, level):
+        if depth <= 0:
+            return
+        out.append(((m @ [0, 0, 0, 1])[:3], (m @ [0, length, 0, 1])[:3], level))
+        for turn in (-angle, angle):
+            draw(m @ translate(length) @ rot_z(turn), depth - 1, length * attenuation, level + 1)
+
+    draw(np.eye(4), depth, length, 0)
+    return out
+
+
+FIGURE_1_15 = {"depth": 7, "length": 1.0, "attenuation": 0.635, "angle": 30.0}
+"""Figure 1.15: "each branch is branched by changing by 30 degrees" (LSystem.scene); attenuation 0.635."""
+
+
+@pytest.mark.parametrize("angle", [30.0, 20.0, 45.0])
+def test_lsystem_segments_are_the_books_draw_fractal(angle):
+    expected = book_lsystem(7, 1.0, 0.635, angle)
+    segments, level = pm.lsystem_segments(7, 1.0, 0.635, angle)
+    assert len(segments) == len(expected) == 127 and np.bincount(level).tolist() == [2**k for k in range(7)]
+    rows = np.concatenate([segments.reshape(-1, 6), level[:, None]], axis=1).astype(np.float64)
+    book = np.array([[*a, *b, lv] for a, b, lv in expected])
+    assert_same_rows(rows, book, 1e-5, f"segments at {angle} degrees")
+
+
+def test_lsystem_scene_is_figure_1_15(runtime):
+    sim = get("procedural_modeling_lsystem").create(runtime)
+    p = sim.params
+    assert (p.depth, p.length, p.attenuation, p.angle) == tuple(FIGURE_1_15.values())
+    segments = sim.state()["segments"]
+    # every child turns exactly 30 degrees from its parent, left or right
+    direction = segments[:, 1] - segments[:, 0]
+    k = np.arange(1, 127)
+    parent = direction[(k - 1) // 2].astype(np.float64)
+    child = direction[k].astype(np.float64)
+    turn = np.degrees(np.arctan2(np.cross(parent[:, :2], child[:, :2]), (parent[:, :2] * child[:, :2]).sum(1)))
+    np.testing.assert_allclose(np.abs(turn), 30.0, atol=1e-3)
+    lengths = np.linalg.norm(direction, axis=1)
     assert lengths.sum() == pytest.approx(sum((2 * 0.635) ** k for k in range(7)), rel=1e-6)
     assert lengths.sum() == pytest.approx(16.0324, abs=1e-4)
-    rows = segments.reshape(-1, 6).astype(np.float64)
-    mirrored = rows * np.array([-1, 1, 1, -1, 1, 1])
-    assert_same_rows(mirrored, rows, 1e-5, "mirrored segments")
-    # every segment starts where its parent (heap order) ends
-    k = np.arange(1, 127)
-    np.testing.assert_allclose(segments[k, 0], segments[(k - 1) // 2, 1], atol=1e-6)
 
 
 def test_lsystem_rewriting():
@@ -463,15 +563,52 @@ def test_run_every_keeps_the_growth_history(capsys, tmp_path):
 # {{{ views
 
 
+def projected_state(view, camera, size) -> tuple[np.ndarray, np.ndarray]:
+    """Where the scene's state lands in a (W, H) picture, by the test's own projection and rasterizer: the mesh at
+    every copy of the view's layout (and the cylinder's other variant at x = -5), or the L-system's lines. (pixel
+    centres covered, pixels touched: the covered ones and every pixel a triangle's edge crosses, for thin tips)."""
+    sim = view.sim
+    if not hasattr(view, "layout"):  # the L-system: lines
+        ends, front = to_pixels(camera, sim.state()["segments"].reshape(-1, 3), size)
+        assert front.all()
+        lines = rasterize_segments(ends.reshape(-1, 2, 2), size)
+        return lines, lines
+    parts = [(sim.mesh(), offset) for offset, _ in view.layout()]
+    if hasattr(view, "other"):
+        parts.append((sim.mesh_of(not sim.params.bad), (-2 * view.spacing, 0.0, 0.0)))
+    corners = []
+    for mesh, offset in parts:
+        xy, front = to_pixels(camera, mesh.vertices.astype(np.float64) + offset, size)
+        assert front.all()
+        corners.append(xy[mesh.faces])
+    corners = np.concatenate(corners)
+    covered = rasterize_triangles(corners, size)
+    edges = np.stack([corners, np.roll(corners, 1, axis=1)], axis=2).reshape(-1, 2, 2)
+    return covered, covered | rasterize_segments(edges, size)
+
+
 @pytest.mark.gl
 @pytest.mark.parametrize("name", SCENE_NAMES)
-def test_views_draw_the_mesh(runtime, gl, name):
+def test_views_draw_the_state_where_it_projects(runtime, gl, name):
+    """The drawn pixels are the state's projection: nothing drawn farther than a pixel from it, and all of it
+    drawn but its one-pixel rim (a mesh moved, scaled, left out or a copy missing fails)."""
     sim = get(name).create(runtime, **SMALL.get(name, {}))
     for _ in range(200):  # the trees grow fully (_T = 1 after 3 s)
         sim.step(1 / 60)
-    pixels, primitives, view, _ = render_view(gl, name, sim, size=(160, 96))
-    mask = foreground(pixels, view.background)
-    assert mask.mean() > 0.005 and primitives > 0
+    size = (160, 96)
+    pixels, primitives, view, camera = render_view(gl, name, sim, size=size, show_frames=False)
+    drawn = foreground(pixels, view.background)
+    expected, touched = projected_state(view, camera, size)
+    assert expected.mean() > 0.005 and primitives > 0
+    stray = drawn & ~dilate(touched, 1)
+    assert stray.sum() <= 0.01 * drawn.sum(), f"{stray.sum()} of {drawn.sum()} drawn pixels outside the projection"
+    if hasattr(view, "layout"):
+        inner = ~dilate(~expected, 1)
+        missing = inner & ~drawn
+        assert missing.sum() <= 0.02 * inner.sum(), f"{missing.sum()} of {inner.sum()} projected pixels not drawn"
+    else:  # lines: every pixel a segment crosses is drawn within a pixel
+        missing = expected & ~dilate(drawn, 1)
+        assert missing.sum() <= 0.02 * expected.sum(), f"{missing.sum()} of {expected.sum()} line pixels not drawn"
     assert {k.key for k in view.keys} >= {"[", "]"}
     for key in view.keys:
         assert callable(getattr(view, key.action)), key.action
