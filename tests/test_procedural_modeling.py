@@ -455,7 +455,8 @@ def test_lsystem_scene_is_figure_1_15(runtime):
     k = np.arange(1, 127)
     parent = direction[(k - 1) // 2].astype(np.float64)
     child = direction[k].astype(np.float64)
-    turn = np.degrees(np.arctan2(np.cross(parent[:, :2], child[:, :2]), (parent[:, :2] * child[:, :2]).sum(1)))
+    cross = parent[:, 0] * child[:, 1] - parent[:, 1] * child[:, 0]
+    turn = np.degrees(np.arctan2(cross, (parent[:, :2] * child[:, :2]).sum(1)))
     np.testing.assert_allclose(np.abs(turn), 30.0, atol=1e-3)
     lengths = np.linalg.norm(direction, axis=1)
     assert lengths.sum() == pytest.approx(sum((2 * 0.635) ** k for k in range(7)), rel=1e-6)
