@@ -5,7 +5,7 @@
 //                     __local tiles of SIMULATION_BLOCK_SIZE boids (two barriers per tile, as the book)
 //      ForceCS_naive  the same sums read straight from global memory (reference and benchmark baseline)
 //      ForceCS_cpu    the same sums for CPU_LANES boids per work-item in the lanes of float16 vectors, no __local
-//                     memory and no barriers: what variant=tiled runs on CPU devices (PoCL)
+//                     memory and no barriers (variant=lanes; what variant=auto runs on CPU devices, PoCL)
 //      ForceCS_grid   the same sums over the boids in the 27 grid cells around each boid (the chapter's summary:
 //                     "a grid would make the neighbour search faster"); the grid comes from grid.cl, built by
 //                     ugpcl.grid.UniformGrid on the positions with cell size = the largest radius

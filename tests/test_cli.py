@@ -165,7 +165,9 @@ def test_run_png_shows_the_flock(capsys, tmp_path, gl):
 def test_bench_prints_a_table(capsys):
     code, out, _ = run(capsys, "bench", "boids", "--size", "256")
     assert code == 0
-    assert "interactions/s" in out and "flocking" in out and out.count("tiled") == 2
+    assert "interactions/s" in out and "flocking" in out
+    rows = [line.split() for line in out.splitlines() if line.startswith("256 ")]  # N, state, variant, kernel, ...
+    assert [row[2:4] for row in rows if row[2] == "tiled"] == [["tiled", "ForceCS"]] * 2  # start, flocking
 
 
 def test_bench_shares_of_the_device_limits_and_json_records_match_the_table(capsys, tmp_path):

@@ -195,7 +195,13 @@ def make(runtime, n: int = 32, cpu_kernels: bool | None = None, **overrides) -> 
 
 
 def test_cpu_kernels_are_chosen_by_device_type(runtime):
-    assert make(runtime, 8).cpu_kernels == (not runtime.is_gpu)  # the fixture's devices: PoCL or a GPU
+    sim = make(runtime, 8)
+    assert sim.cpu_kernels == (not runtime.is_gpu)  # the fixture's devices: PoCL or a GPU
+    cpu = "" if runtime.is_gpu else "_cpu"
+    assert sim.stats()["kernels"] == f"SampleField{cpu}, PolygonizeAppend{cpu}"  # the summary names what ran
+    sim.update(path="scan")
+    expected = f"SampleField{cpu}, ClassifyCells{cpu}, ScanBlocks, AddBlockOffsets, GenerateTriangles{cpu}"
+    assert sim.stats()["kernels"] == expected
 
 
 # {{{ layout and tables

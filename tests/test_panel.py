@@ -62,7 +62,7 @@ def test_spot_checks_of_the_mapping():
     boids = {w.name: w for w in widgets(get("boids").params())}
     assert boids["max_object_num"].kind == "slider" and boids["max_object_num"].log  # 1 .. 4194304
     assert boids["wall_center"].kind == "drag" and boids["wall_center"].components == 3
-    assert boids["variant"].choices == ("tiled", "naive", "grid")
+    assert boids["variant"].choices == ("auto", "tiled", "lanes", "naive", "grid")
     assert "resets" in boids["max_object_num"].tooltip and "resets" not in boids["max_speed"].tooltip
     fluids = {w.name: w for w in widgets(get("marching_cubes").params())}
     assert fluids["threshold"].kind == "slider" and not fluids["threshold"].log  # [0, 1]: linear

@@ -938,6 +938,7 @@ def test_rows_sweep_is_project_step2_bit_for_bit(runtime, shape):
 def test_sweep_kernel_is_chosen_by_device_and_checked(runtime):
     sim = make(runtime, (8, 5, 5))
     assert sim.sweep_kernel == "ProjectStep2Rows"  # on every device (strips_on_cpu): faster on PoCL too
+    assert sim.stats()["sweep kernel"] == "ProjectStep2Rows"  # the run's summary names it
     assert make(runtime, (9, 5, 5)).sweep_kernel == "ProjectStep2"  # a width the strips cannot cover
     with pytest.raises(ValueError, match="sweep_kernel ProjectStep2Rows needs variant=fixed and a grid width"):
         make(runtime, (9, 5, 5)).sweep_kernel = "ProjectStep2Rows"

@@ -1,11 +1,13 @@
 """Boids on the GPU: Reynolds flocking of N boids in a box (vol.1 ch.3; docs/chapters/03-boids.md).
 
 Kernel order per step: ``ForceCS`` (steering forces against all N boids through ``__local`` tiles) then
-``IntegrateCS`` (wall avoidance, speed limit, explicit Euler). ``variant=naive`` swaps ForceCS for
-``ForceCS_naive``, the same sums without local memory; ``variant=grid`` for ``ForceCS_grid``, which visits only
-the boids in the 27 uniform-grid cells around each boid (the chapter's summary, vol.1 ch.3 section 3.5, suggests it).
-On a CPU device (PoCL) ``variant=tiled`` runs ``ForceCS_cpu`` instead of the book's tiles: 16 boids per work-item
-in vector lanes, no local memory, no barriers (``stats()["ForceCS kernel"]`` and the bench say which ran).
+``IntegrateCS`` (wall avoidance, speed limit, explicit Euler). The variant picks the ForceCS kernel, the same on
+every device: ``tiled`` is the book's ``ForceCS``; ``lanes`` is ``ForceCS_cpu``, 16 boids per work-item in vector
+lanes, no local memory, no barriers; ``naive`` is ``ForceCS_naive``, the same sums without local memory; ``grid`` is
+``ForceCS_grid``, which visits only the boids in the 27 uniform-grid cells around each boid (the chapter's summary,
+vol.1 ch.3 section 3.5, suggests it). ``auto`` (default) runs ``tiled`` on GPUs and Oclgrind and ``lanes`` on CPU
+devices (PoCL), where barriers cost a work-group loop per tile; ``stats()["ForceCS kernel"]`` names the kernel that
+ran.
 
 Differences from the book: N need not be a multiple of the block size (the book dispatches floor(N/256) groups
 and reads past the buffer otherwise); a rule whose mean direction is the zero vector steers by 0 instead of
@@ -31,6 +33,8 @@ MAX_GRID_CELLS = 1 << 21
 """Cap on the cells of variant=grid (the book's box with radius 2 needs 16^3 = 4096)."""
 CPU_LANES = 16
 """Boids per work-item of ForceCS_cpu (CPU_LANES in clkernels/boids.cl)."""
+FORCE_KERNELS = {"tiled": "ForceCS", "lanes": "ForceCS_cpu", "naive": "ForceCS_naive", "grid": "ForceCS_grid"}
+"""The ForceCS kernel of each variant; ``auto`` takes the device's (``Simulation.auto_kernel``)."""
 
 INIT_POSITION_RADIUS = 1.0
 """Boids start uniformly inside a ball of this radius (book: Random.insideUnitSphere * 1.0)."""
@@ -74,8 +78,10 @@ class Params(BaseParams):
     """Work-group size = tile length of ForceCS (book: SIMULATION_BLOCK_SIZE); halved if the device cannot run it."""
     object_scale: tuple[float, float, float] = param((0.1, 0.2, 0.5), 0.0, 1e4, lo_open=True, live=True)
     """Scale of the instanced cube drawn per boid, render only (book: ObjectScale). Up to 1e4, as wall_size."""
-    variant: str = param("tiled", choices=("tiled", "naive", "grid"), live=True)
-    """ForceCS flavour: the book's local-memory tiles, the plain global-memory loop, or the uniform grid."""
+    variant: str = param("auto", choices=("auto", "tiled", "lanes", "naive", "grid"), live=True)
+    """ForceCS kernel: tiled = the book's local-memory tiles with barriers (ForceCS), lanes = 16 boids per work-item
+    in vector lanes (ForceCS_cpu), naive = the plain global-memory loop, grid = the uniform grid; auto = tiled on a
+    GPU, lanes on a CPU device. The same forces up to float rounding."""
 
 
 class Simulation(BaseSimulation):
@@ -92,10 +98,10 @@ class Simulation(BaseSimulation):
         self.block_size, self.program = rt.fitted_program(
             "boids", ("ForceCS",), p.simulation_block_size, define="SIMULATION_BLOCK_SIZE"
         )
-        # what variant=tiled runs (tests may set the other): the book's barrier-synchronised tiles cost PoCL a
-        # work-group loop per tile, so CPU devices get the vector-lane kernel; Oclgrind keeps the tiles to check them
+        # what variant=auto runs: the book's barrier-synchronised tiles cost PoCL a work-group loop per tile, so CPU
+        # devices get the vector-lane kernel (variant=lanes); GPUs and Oclgrind (which checks them) the tiles
         cpu = bool(rt.device.type & cl.device_type.CPU) and not rt.is_oclgrind
-        self.tiled_kernel = "ForceCS_cpu" if cpu else "ForceCS"
+        self.auto_kernel = FORCE_KERNELS["lanes" if cpu else "tiled"]
         self.boid_data = rt.to_device(initial_boids(self.n, self.seed))
         self.boid_force = rt.zeros(self.n, cltypes.float4)
         self.grid = None  # built on first use by variant=grid
@@ -136,7 +142,8 @@ class Simulation(BaseSimulation):
 
     def force_kernel(self) -> str:
         """The ForceCS kernel that the current variant runs on this device."""
-        return {"tiled": self.tiled_kernel, "naive": "ForceCS_naive", "grid": "ForceCS_grid"}[self.params.variant]
+        variant = self.params.variant
+        return self.auto_kernel if variant == "auto" else FORCE_KERNELS[variant]
 
     def _neighbour_grid(self) -> UniformGrid:
         """A grid over the wall box with cells as large as the largest radius (coarser if that would need more

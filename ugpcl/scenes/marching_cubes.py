@@ -310,7 +310,15 @@ class Simulation(BaseSimulation):
             "pool capacity": self.pool.capacity,
             "pool overflows": self.overflows,
             "path": self.params.path,
+            "kernels": ", ".join(self.frame_kernels()),
         }
+
+    def frame_kernels(self) -> tuple[str, ...]:
+        """The kernels a frame runs on this device, in order: the path's, as their *_cpu twins on CPU devices."""
+        cpu = "_cpu" if self.cpu_kernels else ""
+        if self.params.path == "append":
+            return f"SampleField{cpu}", f"PolygonizeAppend{cpu}"
+        return f"SampleField{cpu}", f"ClassifyCells{cpu}", "ScanBlocks", "AddBlockOffsets", f"GenerateTriangles{cpu}"
 
     # }}}
 

@@ -466,6 +466,7 @@ class Simulation(StripSweeps, BaseSimulation):
             "grid": "x".join(str(n) for n in (self.params.width, self.params.height, self.params.depth)),
             "variant": self.params.variant,
             "local size": self.local_size,
+            "sweep kernel": self.sweep_kernel,
             "max density": float(state["density"].max()),
             "total density": float(state["density"].sum(dtype=np.float64)),
             "max speed": float(speed.max()),

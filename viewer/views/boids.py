@@ -24,7 +24,7 @@ class View(BaseView):
         Key("1", "separation on/off", "toggle_separation"),
         Key("2", "alignment on/off", "toggle_alignment"),
         Key("3", "cohesion on/off", "toggle_cohesion"),
-        Key("tab", "ForceCS variant: tiled / naive / grid", "next_variant"),
+        Key("tab", "ForceCS variant: auto / tiled / lanes / naive / grid", "next_variant"),
         Key("b", "wall box on/off", "toggle_box"),
         Key("c", "colour by speed on/off", "toggle_colors"),
     )
@@ -84,7 +84,8 @@ class View(BaseView):
             if w
         ]
         return [
-            f"N = {self.sim.n}  ForceCS: {p.variant}  rules: {' '.join(rules) or 'none'}  sep w = {p.separate_weight:g}"
+            f"N = {self.sim.n}  ForceCS: {p.variant} ({self.sim.force_kernel()})  rules: {' '.join(rules) or 'none'}"
+            f"  sep w = {p.separate_weight:g}"
         ]
 
     # {{{ key actions
@@ -119,7 +120,7 @@ class View(BaseView):
         self._toggle_weight("cohesion_weight")
 
     def next_variant(self) -> None:
-        variants = ("tiled", "naive", "grid")
+        variants = ("auto", "tiled", "lanes", "naive", "grid")
         self.sim.update(variant=variants[(variants.index(self.sim.params.variant) + 1) % len(variants)])
 
     def toggle_box(self) -> None:
