@@ -3,6 +3,11 @@ PYTHON ?= python3
 VENV ?= .venv
 UGPCL_DEVICE ?=
 SCENE ?= boids
+# make mutate (docs/testing.md): the kernel file(s) to mutate (a stem, stems joined by commas, or all), mutants that
+# build per file, mutants tested at once (each with the cores / JOBS for PoCL's threads); JSON=path keeps the results.
+CHAPTER ?= boids
+MUTANTS ?= 15
+JOBS ?= 1
 # pytest-xdist workers for make test: the suite is mostly one-threaded Python; PoCL's kernels use every core anyway.
 # Each test file runs whole on one worker (--dist loadfile), in its own order: the process's one offscreen GL context
 # carries state from test to test, and some GL tests fail when another file's tests run between them (seen with
@@ -17,7 +22,7 @@ STAMP := $(VENV)/.installed
 SYSTEM_PACKAGES := pocl-opencl-icd ocl-icd-libopencl1 libegl1 libegl-mesa0 libgl1-mesa-dri xvfb xdotool
 
 .DEFAULT_GOAL := help
-.PHONY: help system-deps venv run test test-oclgrind test-wheel bench view png anim docs lint clean
+.PHONY: help system-deps venv run test test-oclgrind test-wheel mutate bench view png anim docs lint clean
 
 help: ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-14s %s\n", $$1, $$2}'
@@ -48,6 +53,9 @@ test: $(STAMP) ## the test suite on PoCL (CPU), on TEST_WORKERS processes (about
 
 test-oclgrind: $(STAMP) ## every kernel on the Oclgrind simulator: data races, out-of-bounds access
 	OCLGRIND_DATA_RACES=1 $(BIN)/pytest -m oclgrind -q
+
+mutate: $(STAMP) ## do the tests catch faults put into a kernel file? make mutate CHAPTER=boids MUTANTS=15 JOBS=2
+	$(BIN)/python tests/mutate.py --chapter $(CHAPTER) --mutants $(MUTANTS) --jobs $(JOBS) $(if $(JSON),--json $(JSON))
 
 test-wheel: $(STAMP) ## build the wheel, install it in a fresh venv outside the checkout, run scenes from there
 	bash .ci/wheel-check
