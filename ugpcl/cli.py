@@ -131,14 +131,15 @@ def cmd_run(args) -> int:
             raise UsageError("--resume takes the scene, its parameters and the seed from the file; drop --set/--seed")
         if args.every:
             raise UsageError("--every cannot be combined with --resume (the history would start at the checkpoint)")
-        scene, params, seed = resume.scene, resume.params, resume.seed
+        scene, params, seed, sets = resume.scene, resume.params, resume.seed, {}
         args.dt = resume.dt if args.dt is None else args.dt
     else:
         resume = None
         if not args.scene:
             raise UsageError("run needs a scene (see `ugpcl list`) or --resume FILE")
         scene = scene_named(args.scene)
-        params = scene_params(scene, parse_sets(scene, args.set or []))
+        sets = parse_sets(scene, args.set or [])
+        params = scene_params(scene, sets)
         seed = 0 if args.seed is None else args.seed
     if args.steps < 0:
         raise UsageError(f"--steps must be >= 0, got {args.steps}")
@@ -185,6 +186,7 @@ def cmd_run(args) -> int:
     for path in (out, checkpoint, png, mesh, first_frame):  # leftovers of a killed run in these folders go
         outputs.target(path)
     # }}}
+    warn_unused(params.ignored(sets))  # a --set that changes nothing is said, and the run goes on
     runtime = Runtime.shared(args.device)
     sim = open_simulation(scene, params, seed, runtime, announce=resume is None)
     if resume is not None:  # announced once restored: a checkpoint refused then is still one line
@@ -253,6 +255,13 @@ def cmd_run(args) -> int:
     return 0
 
 
+def warn_unused(lines) -> None:
+    """Say each parameter given that the other settings leave unused (``Params.ignored``): one line each on stderr;
+    the command goes on as asked."""
+    for line in lines:
+        print(f"ugpcl: warning: {line}", file=sys.stderr)
+
+
 def cmd_sweep(args) -> int:
     require("ugpcl sweep", "sweep")
     if args.png:
@@ -281,6 +290,8 @@ def cmd_sweep(args) -> int:
     output_path(str(out / INDEX), "--out", (".csv",))
     common = {"steps": args.steps, "dt": dt, "png_size": parse_size(args.png_size), "device": args.device}
     jobs = plan(scene, grid, sets, seeds, out, args.png, mesh_suffix, **common)
+    runs = {job.params_json: job.changed for job in jobs}  # one per grid point: its seeds share the parameters
+    warn_unused(dict.fromkeys(line for changed in runs.values() for line in scene.params(**changed).ignored(changed)))
     args.outputs = Tally(out / INDEX)  # what a stopped sweep says it wrote
     tally = sweep(jobs, out, args.scheduler, args.device, args.quiet, args.outputs, args.no_worker_timeout)
     print(f"{out / INDEX}: {tally.ok} ok, {tally.failed} failed, {tally.skipped} finished before")

@@ -19,7 +19,9 @@ import dataclasses
 import inspect
 import json
 import math
+import os
 import re
+import sys
 import typing
 import warnings
 from dataclasses import dataclass, field
@@ -33,13 +35,78 @@ FLOAT32_MAX = float(np.finfo(np.float32).max)
 """Largest float parameter: every kernel argument is float32."""
 
 
-def param(default, lo=None, hi=None, *, lo_open: bool = False, choices=None, live: bool = False):
+def param(
+    default,
+    lo=None,
+    hi=None,
+    *,
+    lo_open: bool = False,
+    choices=None,
+    live: bool = False,
+    ignored_when: dict | None = None,
+    used_only_when: dict | None = None,
+):
     """A Params field with its book default and allowed range ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``) or
     ``choices``. For tuple fields the range applies to every component. ``live``: a change takes effect on the
-    next step; changing a field that is not live resets the simulation (``Simulation.update``)."""
+    next step; changing a field that is not live resets the simulation (``Simulation.update``).
+
+    ``ignored_when={"use_uv_animation": True}``: other settings that leave this field unused, the field unused while
+    any of them has its value; ``used_only_when={"mode": 2}``: unused while any of them has another value. A set of
+    values stands for any of them (``used_only_when={"composite_type": {"colored_additive", "colored_screen"}}``).
+    ``ugpcl params`` shows them (``ignored when``), and setting the field while they hold says so
+    (``Params.ignored``, ``ParameterIgnored``)."""
     if lo is not None and hi is not None and not lo <= hi:
         raise ValueError(f"param range [{lo}, {hi}] is empty")
-    return field(default=default, metadata={"lo": lo, "hi": hi, "lo_open": lo_open, "choices": choices, "live": live})
+    metadata = {"lo": lo, "hi": hi, "lo_open": lo_open, "choices": choices, "live": live}
+    metadata["unused"] = tuple(
+        (setting, _value_set(values), equal)
+        for conditions, equal in ((ignored_when, True), (used_only_when, False))
+        for setting, values in (conditions or {}).items()
+    )
+    return field(default=default, metadata=metadata)
+
+
+def _value_set(values) -> tuple:
+    """The values of one condition of ``ignored_when`` / ``used_only_when``: a set (or frozenset) is several, anything
+    else (a tuple too: the value of a tuple field) one."""
+    return tuple(sorted(values, key=str)) if isinstance(values, set | frozenset) else (values,)
+
+
+@dataclass(frozen=True)
+class Unused:
+    """One declared dependency: ``field`` is unused while ``setting`` has one of ``values`` (``equal``) or while it has
+    none of them (not ``equal``). Declared beside the field with ``param(ignored_when=...)`` or
+    ``param(used_only_when=...)``."""
+
+    field: str
+    setting: str
+    values: tuple
+    equal: bool
+
+    def holds(self, params: Params) -> bool:
+        """Whether ``params`` leave the field unused."""
+        return (getattr(params, self.setting) in self.values) == self.equal
+
+    @property
+    def rule(self) -> str:
+        """As ``ugpcl params`` shows it: ``use_uv_animation=true``, ``mode!=2``."""
+        return f"{self.setting}{'=' if self.equal else '!='}{'|'.join(_word(v) for v in self.values)}"
+
+    def why(self, params: Params) -> str:
+        """What in ``params`` leaves the field unused: ``use_uv_animation=true``, ``mode=0 (used only with mode=2)``."""
+        now = f"{self.setting}={_word(getattr(params, self.setting))}"
+        return now if self.equal else f"{now} (used only with {self.setting}={'|'.join(map(_word, self.values))})"
+
+
+def _word(value) -> str:
+    """A value as ``--set`` takes it, for the lines about unused fields: true or false, "" for an empty text."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return '""' if value == "" else show_value(value)
+
+
+_DEPENDENCIES: dict[type, tuple[Unused, ...]] = {}
+"""Params class -> its checked ``Unused`` declarations (``Params.dependencies``)."""
 
 
 def _describe_range(meta) -> str:
@@ -89,6 +156,7 @@ class Params:
             object.__setattr__(self, f.name, value)
             self._check_range(f, value)
         self.check()
+        self.dependencies()  # a declaration that names no field, or a value it cannot take, fails on first use
 
     def check(self) -> None:
         """Cross-field checks: the rules of ``limits``, each raising ``self.broken(rule)``."""
@@ -161,6 +229,54 @@ class Params:
         return frozenset(f.name for f in dataclasses.fields(cls) if f.metadata.get("live"))
 
     @classmethod
+    def dependencies(cls) -> tuple[Unused, ...]:
+        """Every field's ``ignored_when`` / ``used_only_when`` (``param()``) as ``Unused``, in field order. Checked the
+        first time: each names another field, with values that field takes (AssertionError otherwise)."""
+        found = _DEPENDENCIES.get(cls)
+        if found is None:
+            fields, hints = {f.name: f for f in dataclasses.fields(cls)}, typing.get_type_hints(cls)
+            found = tuple(
+                # a bool setting says the value that leaves the field unused: time_scale, used_only_when
+                # use_uv_animation is true, is ignored while use_uv_animation=false
+                Unused(f.name, setting, (not values[0],), True)
+                if hints.get(setting) is bool and not equal and len(values) == 1 and isinstance(values[0], bool)
+                else Unused(f.name, setting, values, equal)
+                for f in fields.values()
+                for setting, values, equal in f.metadata.get("unused", ())
+            )
+            for d in found:
+                where = f"{cls.__qualname__}.{d.field}: {'ignored_when' if d.equal else 'used_only_when'}"
+                if d.setting not in fields or d.setting == d.field:
+                    raise AssertionError(f"{where} names {d.setting!r}, not another field of {cls.__qualname__}")
+                for value in d.values:
+                    try:
+                        setting = fields[d.setting]
+                        cls._check_range(setting, cls._coerce(d.setting, hints[d.setting], value))
+                    except ValueError as err:
+                        raise AssertionError(f"{where}: {err}") from None
+            _DEPENDENCIES[cls] = found
+        return found
+
+    def ignored(self, names) -> list[str]:
+        """For the fields of ``names`` (those a user set) that these parameters leave unused, one line per reason:
+        ``u and v are ignored while use_uv_animation=true``. Empty when every one is used."""
+        reasons: dict[str, list[str]] = {}
+        for name in (n for n in self.names() if n in names):
+            why = [d.why(self) for d in self.dependencies() if d.field == name and d.holds(self)]
+            if why:
+                reasons.setdefault(" and ".join(why), []).append(name)
+        return [
+            f"{_joined(fields)} {'is' if len(fields) == 1 else 'are'} ignored while {why}"
+            for why, fields in reasons.items()
+        ]
+
+    @classmethod
+    def ignored_when(cls, name: str) -> str:
+        """When field ``name`` is unused, as the ``ignored when`` column shows it (``mode!=2 or animator=true``);
+        empty for a field that is always used."""
+        return " or ".join(d.rule for d in cls.dependencies() if d.field == name)
+
+    @classmethod
     def parse(cls, name: str, text: str):
         """Convert the text of ``--set name=text`` with the field's type (tuples: comma-separated). A text that is
         not of the type names the field, the type and its range: ``count expects int in [1, 10], got 'x'``."""
@@ -199,20 +315,27 @@ class Params:
 
     @classmethod
     def table(cls) -> list[dict[str, str]]:
-        """One row per field: name, default, range and the attribute docstring (for ``ugpcl params`` and docs)."""
-        docs = field_docs(cls)
+        """One row per field: name, default, range, live, when other settings leave it unused (``ignored when``, a
+        column only where a field declares it) and the attribute docstring (for ``ugpcl params`` and docs)."""
+        docs, dependent = field_docs(cls), bool(cls.dependencies())
         return [
             {
                 "name": f.name,
                 "default": show_value(f.default),
                 "range": _describe_range(f.metadata) if f.metadata else "any",
                 "live": "yes" if f.metadata.get("live") else "",
+                **({"ignored when": cls.ignored_when(f.name)} if dependent else {}),
                 "meaning": docs.get(f.name, ""),
             }
             for f in dataclasses.fields(cls)
         ]
 
     # }}}
+
+
+def _joined(names: list[str]) -> str:
+    """``u``, ``u and v``, ``a, b and c``."""
+    return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} and {names[-1]}"
 
 
 def _parse_one(kind, text: str):
@@ -278,6 +401,10 @@ class Simulation:
     """The scene this simulation was created for (``Scene.create``): its name, defaults and view."""
     first_scene: ClassVar[Scene | None] = None
     """The first ``Scene`` declared for this class (set by ``Scene``): whose defaults ``default_params`` gives."""
+    warns_ignored: bool = True
+    """Whether ``update`` says a given field that the other settings leave unused (``ParameterIgnored``); False for
+    a simulation that another one drives from its own parameters (tessellation's fluid), whose own ``update``
+    already said it of the fields the user gave."""
 
     def __init__(self, runtime, params: Params | None = None, seed: int = 0):
         self.runtime = runtime
@@ -361,8 +488,11 @@ class Simulation:
     def update(self, **changes) -> bool:
         """Change parameters (validated); reset unless every changed one is live (``param(..., live=True)``, the
         ``live`` column of ``ugpcl params``). A reset is said with a ``ParameterReset`` warning naming the fields
-        (the viewer, which resets on purpose, ignores it). Returns whether it reset."""
+        (the viewer, which resets on purpose, ignores it), a field given that the other settings leave unused with a
+        ``ParameterIgnored`` one. Returns whether it reset."""
         new = self.params.replace(**changes)
+        if self.warns_ignored:
+            warn_ignored(new, changes)
         changed = {k for k in changes if getattr(new, k) != getattr(self.params, k)}
         self.params = new
         fixed = sorted(changed - new.live_names())
@@ -379,6 +509,29 @@ class Simulation:
 
 class ParameterReset(UserWarning):
     """``Simulation.update`` changed a parameter that is not live, so the simulation started again."""
+
+
+class ParameterIgnored(UserWarning):
+    """A parameter was set (``Scene.create``, ``ugpcl.create``, ``Simulation.update``) that the other settings leave
+    unused: ``u is ignored while use_uv_animation=true``. Python shows it once per call site; ``ugpcl run`` and
+    ``ugpcl sweep`` print the same line for ``--set`` themselves."""
+
+
+PACKAGE = os.path.dirname(os.path.abspath(__file__))
+"""The ugpcl package's folder: a ParameterIgnored names the first caller outside it."""
+
+
+def warn_ignored(params: Params, names) -> None:
+    """A ``ParameterIgnored`` for each line of ``params.ignored(names)``, attributed to the first frame outside the
+    ugpcl package (the user's call, however deep inside ugpcl it was made), so that it shows once per call site."""
+    lines = params.ignored(names)
+    if not lines:
+        return
+    level, frame = 1, sys._getframe(1)
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(PACKAGE + os.sep):
+        level, frame = level + 1, frame.f_back
+    for line in lines:
+        warnings.warn(line, ParameterIgnored, stacklevel=level + 1)
 
 
 def check_dt(dt: float | None, default: float) -> float:
@@ -477,7 +630,11 @@ class Scene:
         return rows
 
     def create(self, runtime, seed: int = 0, **overrides) -> Simulation:
-        sim = self.simulation(runtime, self.params(**overrides), seed)
+        """A new simulation with ``overrides`` over the scene's defaults; an override that the other settings leave
+        unused is said with a ``ParameterIgnored`` warning."""
+        params = self.params(**overrides)
+        warn_ignored(params, overrides)
+        sim = self.simulation(runtime, params, seed)
         sim.scene = self
         return sim
 

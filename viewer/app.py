@@ -27,7 +27,7 @@ from ugpcl.io import UsageError, written_whole
 from ugpcl.options import ArgumentParser, HelpFormatter, parse_sets, parse_size, quiet_broken_pipe, scene_named
 from ugpcl.run import Diverged, Watch
 from ugpcl.runtime import BuildError, DeviceError, Runtime
-from ugpcl.scene import ParameterReset, show_value
+from ugpcl.scene import ParameterIgnored, ParameterReset, show_value
 
 from .gl import TextOverlay, read_pixels, save_png
 from .imgui_renderer import ImguiRenderer
@@ -527,6 +527,8 @@ def main(argv: list[str] | None = None) -> int:
     window.add_argument("--backend", default=None, help="context backend (egl: headless)")
     args = parser.parse_args(argv)
     warnings.filterwarnings("ignore", category=ParameterReset)  # the window resets on purpose (the panel says so)
+    warnings.filterwarnings("ignore", category=ParameterIgnored)  # keys set fields on purpose; the panel's tooltips
+    # say when a field is ignored, and a --set one is said below
     try:
         scene = scene_named(args.scene)
         if args.keys:
@@ -545,6 +547,8 @@ def main(argv: list[str] | None = None) -> int:
         sized = {} if runtime.is_gpu else {k: v for k, v in scene.interactive.items() if k not in sets}
         params = scene.params(**sized, **sets)
         resources.check(scene.simulation, params, runtime.device)  # ResourceError is a ValueError: exit 2
+        for line in params.ignored(sets):  # a --set that changes nothing is said, and the window opens
+            print(f"ugpcl-view: warning: {line}", file=sys.stderr)
         launch = {"scene": scene, "params": params, "seed": args.seed, "runtime": runtime, "sized": sized}
         ViewerWindow.launch = launch
         # moderngl-window parses its own flags from sys.argv unless given a (non-empty) list of them

@@ -62,12 +62,14 @@ class Widget:
         return typed if self.vector else typed[0]
 
 
-def widget_for(f: dataclasses.Field, kind, default, doc: str) -> Widget:
-    """The widget of field ``f`` of type ``kind`` whose scene default is ``default``."""
+def widget_for(f: dataclasses.Field, kind, default, doc: str, ignored_when: str = "") -> Widget:
+    """The widget of field ``f`` of type ``kind`` whose scene default is ``default``; ``ignored_when``: the other
+    settings that leave it unused (``Params.ignored_when``), said in the tooltip."""
     meta = f.metadata or {}
     vector = typing.get_origin(kind) is tuple
     parts = typing.get_args(kind) if vector else (kind,)
     tooltip = doc + ("" if meta.get("live") else " (changing it resets the simulation)")
+    tooltip += f" (ignored while {ignored_when})" if ignored_when else ""
     common = {"name": f.name, "types": parts, "vector": vector, "live": bool(meta.get("live")), "tooltip": tooltip}
     if meta.get("choices") is not None:
         return Widget(kind="combo", choices=tuple(meta["choices"]), **common)
@@ -94,7 +96,8 @@ def widgets(defaults: Params) -> list[Widget]:
     cls = type(defaults)
     hints, docs = typing.get_type_hints(cls), field_docs(cls)
     return [
-        widget_for(f, hints[f.name], getattr(defaults, f.name), docs.get(f.name, "")) for f in dataclasses.fields(cls)
+        widget_for(f, hints[f.name], getattr(defaults, f.name), docs.get(f.name, ""), cls.ignored_when(f.name))
+        for f in dataclasses.fields(cls)
     ]
 
 

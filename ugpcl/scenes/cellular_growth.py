@@ -126,7 +126,7 @@ class Params(ParticleParams):
     """UpdateEdges, SpringEdges, UpdateParticles passes per step (book: iterations)."""
     render: str = param("edges", choices=("edges", "discs", "spheres"), live=True)
     """Look of the view (V key): discs joined by edge lines, discs only, or lit sphere impostors."""
-    sphere_depth: str = param("radius", choices=("radius", "book"), live=True)
+    sphere_depth: str = param("radius", choices=("radius", "book"), live=True, used_only_when={"render": "spheres"})
     """Depth of a sphere impostor's surface: radius x size (correct) or the book's constant size (ParticleSphere)."""
 
 

@@ -77,16 +77,16 @@ class Params(BaseParams):
     Kernels.compute: force = _Gravity, acc = force * invMass)."""
     sphere: bool = param(True, live=True)
     """Collide with the sphere (book: _EnableCollideSphere, true when CollisionSphereTransform is set)."""
-    sphere_scale: float = param(2.0, 0.0, 1e4, lo_open=True, live=True)
+    sphere_scale: float = param(2.0, 0.0, 1e4, lo_open=True, live=True, ignored_when={"sphere": False})
     """Diameter of the drawn sphere (its localScale.x); collision radius = scale / 2 + 0.01.
     Up to 1e4 m: float32 positions keep 1 mm."""
-    translate_center_z: float = param(0.0, -1e4, 1e4, live=True)
+    translate_center_z: float = param(0.0, -1e4, 1e4, live=True, ignored_when={"sphere": False})
     """Centre of the sphere's motion along z, metres (book: ColliderTranslate.TranslateCenterZ).
     Within 1e4 m: float32 positions keep 1 mm."""
-    translate_length_z: float = param(4.0, -1e4, 1e4, live=True)
+    translate_length_z: float = param(4.0, -1e4, 1e4, live=True, ignored_when={"sphere": False})
     """Amplitude of the sphere's motion along z, metres (book: ColliderTranslate.TranslateLengthZ).
     Within 1e4 m: float32 positions keep 1 mm."""
-    sphere_motion: bool = param(True, live=True)
+    sphere_motion: bool = param(True, live=True, ignored_when={"sphere": False})
     """Move the sphere with the frame time; off freezes it where it is."""
     num_threads_xy: int = param(16, choices=(1, 2, 4, 8, 16, 32))
     """Work-group edge (book: NUM_THREADS_XY = 32); halved until the device runs it."""

@@ -36,21 +36,21 @@ IMAGE_FORMAT = cl.ImageFormat(cl.channel_order.RGBA, cl.channel_type.UNORM_INT8)
 class Params(BaseParams):
     sample: str = param("all", choices=("all", "array", "texture"), live=True)
     """Which of the chapter's samples step() runs."""
-    int_value: int = param(1, -(1 << 20), 1 << 20, live=True)
+    int_value: int = param(1, -(1 << 20), 1 << 20, live=True, ignored_when={"sample": "texture"})
     """Multiplier of KernelFunction_A in the array sample (book: intValue)."""
-    groups: int = param(1, 1, 64, live=True)
+    groups: int = param(1, 1, 64, live=True, ignored_when={"sample": "texture"})
     """Groups launched for the array kernels; > 1 shows the local-id race of KernelFunction_B."""
-    tex_width: int = param(512, 1, 16384)
+    tex_width: int = param(512, 1, 16384, ignored_when={"sample": "array"})
     """Texture width, texels (book: new RenderTexture(512, 512, ...))."""
-    tex_height: int = param(512, 1, 16384)
+    tex_height: int = param(512, 1, 16384, ignored_when={"sample": "array"})
     """Texture height, texels."""
     local_size: tuple[int, int] = param((8, 8), 1, 1024)
     """numthreads (x, y) of the texture kernels (book: [numthreads(8, 8, 1)])."""
     use_images: str = param("auto", choices=("auto", "image", "buffer"))
     """image2d_t when the device has images ("auto"), or force one path."""
-    probe_numthreads: tuple[int, int, int] = param((4, 1, 1), 1, 1024)
+    probe_numthreads: tuple[int, int, int] = param((4, 1, 1), 1, 1024, ignored_when={"sample": "array"})
     """numthreads of the DispatchProbe launch (book's worked example: (4, 1, 1))."""
-    probe_groups: tuple[int, int, int] = param((2, 2, 1), 1, 1024)
+    probe_groups: tuple[int, int, int] = param((2, 2, 1), 1, 1024, ignored_when={"sample": "array"})
     """Dispatch(x, y, z) group counts of the DispatchProbe launch (book's worked example: (2, 2, 1))."""
 
 

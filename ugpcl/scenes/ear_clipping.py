@@ -42,15 +42,15 @@ MAX_TEXT = 64
 
 @dataclass(frozen=True)
 class Params(BaseParams):
-    preset: str = param("nested", choices=tuple(PRESETS))
+    preset: str = param("nested", choices=tuple(PRESETS), used_only_when={"input": ""})
     """The rings to triangulate (nested: the book's TriangulationTest scene; draw: start empty, as DrawTest)."""
     input: str = ""
     """Path of a JSON file {"rings": [[[x, y], ...], ...]}; when set it replaces the preset. At most 16 MiB and
     200000 points in all, |x|, |y| <= 1e9; each ring 3 or more distinct points with an area; rings may touch, edges
     may not cross (but two edges one apart: a local self-intersection, cured)."""
-    text: str = "ugpcl"
+    text: str = param("ugpcl", used_only_when={"preset": "glyph", "input": ""})
     """Text of the glyph preset (1 to 64 characters)."""
-    text_size: float = param(4.0, 0.0, 1000.0, lo_open=True)
+    text_size: float = param(4.0, 0.0, 1000.0, lo_open=True, used_only_when={"preset": "glyph", "input": ""})
     """Em size of the glyph preset, world units."""
     variant: str = param("robust", choices=("robust", "fixed", "book"))
     """robust: any rings real outlines hold (touching, pinched, repeated and collinear points, aligned holes, local

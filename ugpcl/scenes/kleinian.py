@@ -96,47 +96,49 @@ class Params(BaseParams):
     """Width of the headless frame, pixels (the window uses its own size)."""
     height: int = param(360, 16, 8192)
     """Height of the headless frame, pixels."""
-    u: float = param(2.0, 0.1, 4.0, live=True)
+    u: float = param(2.0, 0.1, 4.0, live=True, ignored_when={"use_uv_animation": True})
     """Real part of t = u + iv (book: kleinUV.x): the height of the band 0 <= y <= u. The Line3 fit is made for u
     near 1.94-2 (book 2.6: (2, 0) the most standard, about (1.94, 0.02) the interesting shapes)."""
-    v: float = param(0.0, -2.0, 2.0, live=True)
+    v: float = param(0.0, -2.0, 2.0, live=True, ignored_when={"use_uv_animation": True})
     """Imaginary part of t (book: kleinUV.y): shears the parallelogram."""
     use_uv_animation: bool = param(False, live=True)
     """Drive t by the book's curves animKleinU / animKleinV (book: useUVAnimation) instead of u and v."""
-    time_scale: float = param(1.0, 0.0, 100.0, live=True)
+    time_scale: float = param(1.0, 0.0, 100.0, live=True, used_only_when={"use_uv_animation": True})
     """Multiplier of the script time that the t curves read (book: timeScale)."""
     animator: bool = param(False, live=True)
     """Drive scale, offset and the inversion circle by the KleinianGroupCircleInverse Animator clip (looping,
     CLIP_LENGTH s, unscaled time) instead of the fields."""
     start_time: float = param(0.0, 0.0, 1e6, live=True)
     """Time of the first frame, s (both clocks start here)."""
-    scale: float = param(1.9, 1e-12, 1e4, live=True)
+    scale: float = param(1.9, 1e-12, 1e4, live=True, ignored_when={"animator": True})
     """World units per screen height (book: _Scale). Below about 1e-4 float32 cannot resolve pixels: use
     precision=double."""
-    offset: tuple[float, float] = param((0.0, 0.0), -1e12, 1e12, live=True)
+    offset: tuple[float, float] = param((0.0, 0.0), -1e12, 1e12, live=True, ignored_when={"animator": True})
     """Pan (book: _Offset): in screen heights before scaling for modes 0/1 (so a zoom into world point c needs
     c / scale: hence the wide range), world units after it for mode 2."""
-    circle: tuple[float, float] = param((0.0, 0.0), -1e4, 1e4, live=True)
+    circle: tuple[float, float] = param(
+        (0.0, 0.0), -1e4, 1e4, live=True, used_only_when={"mode": 2}, ignored_when={"animator": True}
+    )
     """Centre of the extra inversion circle of mode 2, world units (book: _Circle.xy)."""
-    circle_w: float = param(1.0, 1e-6, 1e4, live=True)
+    circle_w: float = param(1.0, 1e-6, 1e4, live=True, used_only_when={"mode": 2}, ignored_when={"animator": True})
     """The inversion's 'radius' argument (book: _Circle.w); the shader multiplies by it over |p - c|^2, so it acts as
     the squared radius."""
     iteration: int = param(50, 1, 5000, live=True)
     """Most fold-and-transform steps per sample (book: _Iteration; 500 in the script, 50 in the scenes)."""
     mode: int = param(0, choices=(0, 1, 2), live=True)
     """Shader pass: 0 plain, 1 multisampled, 2 with the extra circle inversion (book: pass)."""
-    samples: int = param(0, 0, 1024, live=True)
+    samples: int = param(0, 0, 1024, live=True, ignored_when={"mode": 0})
     """Samples per pixel in modes 1 and 2; 0 = the book's (20 and 10). Mode 0 takes one."""
-    jitter: float = param(3.0, 0.0, 100.0, live=True)
+    jitter: float = param(3.0, 0.0, 100.0, live=True, ignored_when={"mode": 0})
     """Sample offsets rand2 * jitter / height in world units, one-sided (book: 3 / _ScreenParams.y; it does not
     follow scale)."""
-    hash: str = param("portable", choices=("portable", "sin"), live=True)
+    hash: str = param("portable", choices=("portable", "sin"), live=True, ignored_when={"mode": 0})
     """Jitter hash: a PCG integer hash, the same on every device, or the book's sin hash rand2n."""
     hit_color: tuple[float, float, float, float] = param(HIT_COLOR, 0.0, 1.0, live=True)
     """Colour of points of the limit set's disks (book: _HitColor)."""
     back_color: tuple[float, float, float, float] = param(BACK_COLOR_KLEINIAN, 0.0, 1.0, live=True)
     """Colour of the other points (book: _BackColor)."""
-    adaptive: bool = param(False, live=True)
+    adaptive: bool = param(False, live=True, ignored_when={"mode": 0})
     """Take the samples only where the 3x3 neighbourhood of centre samples is not uniform; elsewhere the centre
     colour stands (not in the book)."""
     precision: str = param("float", choices=("float", "double"), live=True)

@@ -75,50 +75,52 @@ class Params(BaseParams):
     L: int = param(30, 2, 128)
     """Lattice edge: L^3 noise weights at integer points, chains start in [0, L)^3 (book: lEdge, scene 30); also the
     rejection output scale (Rejection3d lEdge, 20)."""
-    chains: int = param(600, 1, 1 << 22)
+    chains: int = param(600, 1, 1 << 22, used_only_when={"mode": "metropolis"})
     """Number of independent chains C, one work-item each (book: loop, scene 600)."""
-    burn_in: int = param(100, 0, 100000)
+    burn_in: int = param(100, 0, 100000, used_only_when={"mode": "metropolis"})
     """Next steps before a chain emits (book: nInitialize)."""
-    samples: int = param(20, 1, 10000)
+    samples: int = param(20, 1, 10000, used_only_when={"mode": "metropolis"})
     """States each chain emits, rejected steps repeating the state (book: nlimit, scene 20)."""
-    sigma: float = param(1.0, 0.01, 100.0)
+    sigma: float = param(1.0, 0.01, 100.0, used_only_when={"mode": "metropolis"})
     """Proposal standard deviation in lattice units (book: standard normal, 1). Small values give the tight
     "plants and flowers" clusters of section 8.6."""
-    correlation: tuple[float, float, float] = param((0.0, 0.0, 0.0), -0.99, 0.99)
+    correlation: tuple[float, float, float] = param((0.0, 0.0, 0.0), -0.99, 0.99, used_only_when={"mode": "metropolis"})
     """Proposal correlations (xy, xz, yz): covariance sigma^2 R, factored by Cholesky (book: GenerateRandomPoint,
     without its m21-for-m20 bug). R must be positive definite."""
-    threshold: float = param(-100.0, -1e6, 1e6)
+    threshold: float = param(-100.0, -1e6, 1e6, used_only_when={"mode": "metropolis"})
     """Hard floor: a proposal is kept only if D(x') > threshold (book: threshold, -100 = off). Above 0 the target
     region can fall apart into pieces no chain crosses (section 8.4.3, irreducibility)."""
     density: str = param("exact", choices=DENSITY_MODES)
     """Target density: exact (truncated lattice sum), legacy (the book's 500 random picks), grid (trilinear lookup
     in a precomputed grid), gaussian (analytic test target)."""
-    legacy_picks: int = param(500, 1, 100000)
+    legacy_picks: int = param(500, 1, 100000, used_only_when={"density": "legacy"})
     """Lattice points per legacy density estimate (book: weightReferenceloopCount)."""
-    oversample: int = param(4, 1, 16)
+    oversample: int = param(4, 1, 16, used_only_when={"density": "grid"})
     """Grid points per lattice unit of density=grid (whose grid has ((L + 5) oversample + 1)^3 points)."""
-    target_mean: tuple[float, float, float] = param((10.0, 10.0, 10.0), -1e4, 1e4)
+    target_mean: tuple[float, float, float] = param(
+        (10.0, 10.0, 10.0), -1e4, 1e4, used_only_when={"density": "gaussian"}
+    )
     """Mean of the gaussian target."""
-    target_sigma: float = param(2.0, 0.01, 1e4)
+    target_sigma: float = param(2.0, 0.01, 1e4, used_only_when={"density": "gaussian"})
     """Standard deviation of the gaussian target (per axis)."""
-    reset_limit: int = param(100, 1, 100000)
+    reset_limit: int = param(100, 1, 100000, used_only_when={"mode": "metropolis"})
     """Most start points a chain draws looking for D > 0 (book: limitResetLoopCount)."""
     noise_T: str = param("perlin", choices=("perlin", "random"))
     """Noise table: Perlin's published one, or 8 values drawn from the seed (the book: unseeded randoms)."""
-    batches: int = param(600, 1, 100000)
+    batches: int = param(600, 1, 100000, used_only_when={"mode": "rejection"})
     """Rejection batches (book: loop, scene 600)."""
-    limit: int = param(1000, 1, 1000000)
+    limit: int = param(1000, 1, 1000000, used_only_when={"mode": "rejection"})
     """Candidates per rejection batch (book: limit)."""
-    noise_scale: float = param(10.0, 1e-3, 1e4)
+    noise_scale: float = param(10.0, 1e-3, 1e4, used_only_when={"mode": "rejection"})
     """Rejection candidates u in [0, 1)^3 are tested at noise(u * noise_scale) (book: pnoiseScale)."""
-    rejection_threshold: float = param(0.15, -1.0, 1.0)
+    rejection_threshold: float = param(0.15, -1.0, 1.0, used_only_when={"mode": "rejection"})
     """Keep a candidate if clamp(noise, 0, 1) > this (book: 0.75 class, 0.25 scene: the noise never reaches 0.34,
     so both keep almost nothing; 0.15 keeps about 10%)."""
-    n: int = param(16777216, 1, (1 << 31) - 1)
+    n: int = param(16777216, 1, (1 << 31) - 1, used_only_when={"mode": "pi"})
     """Points of the pi estimate (mode=pi)."""
-    chains_per_second: float = param(10.0, 0.1, 1e6, live=True)
+    chains_per_second: float = param(10.0, 0.1, 1e6, live=True, used_only_when={"mode": "metropolis"})
     """How fast the view reveals chains (book: one per 0.1 s)."""
-    batches_per_second: float = param(60.0, 0.1, 1e6, live=True)
+    batches_per_second: float = param(60.0, 0.1, 1e6, live=True, used_only_when={"mode": "rejection"})
     """How fast the view reveals rejection batches (book: one per 0.001 s, i.e. one per frame)."""
 
     def check(self) -> None:

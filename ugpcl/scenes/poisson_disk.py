@@ -57,7 +57,7 @@ class Params(BaseParams):
     """Candidates per active point (iterationPerPoint; the sample maps <= 0 to 30); method=gpu: rounds of darts."""
     method: str = param("bridson", choices=("bridson", "gpu"))
     """bridson: the chapter's algorithm on the host; gpu: multi-phase dart throwing, ThrowDarts (not in the book)."""
-    annulus: str = param("area", choices=pd.ANNULI)
+    annulus: str = param("area", choices=pd.ANNULI, used_only_when={"method": "bridson"})
     """Candidate distance r..2r: area = sqrt(U[r^2, 4r^2]) as the sample; volume = uniform in the n-ball shell."""
     fill: bool = False
     """After sampling, throw darts into the uncovered gaps until none is left (maximal; not in the book)."""
@@ -66,7 +66,7 @@ class Params(BaseParams):
     The view animates with 2 (the sample: one active point per 0.01 s)."""
     radius_rate: float = param(0.5, 0.0, 2.0, live=True)
     """Drawn radius = r * radius_rate / 2 (radiusRate; 1 draws touching discs)."""
-    record_steps: bool = False
+    record_steps: bool = param(False, used_only_when={"method": "bridson"})
     """Keep the active list's length after every step (active_count in the .npz; bridson)."""
     compare_scipy: bool = False
     """Also sample with scipy.stats.qmc.PoissonDisk (scipy_points in the .npz; fill_space, the same r and k)."""

@@ -109,17 +109,17 @@ class PlaneParams(MeshParams):
     """Extent along z (book: height)."""
     surface: str = param("flat", choices=("flat", "mountain", "terrain"))
     """Depth(u, v) of ParametricPlaneBase: none (Plane.cs), MountainPlane.cs or TerrainPlane.cs."""
-    depth: float = param(1.0, 0.0, 1000.0)
+    depth: float = param(1.0, 0.0, 1000.0, ignored_when={"surface": "flat"})
     """Height scale of the mountain and terrain (book: depth)."""
-    power: float = param(1.25, 0.5, 3.0)
+    power: float = param(1.25, 0.5, 3.0, used_only_when={"surface": "mountain"})
     """Mountain falloff exponent (book: MountainPlane.power)."""
-    u_scale: float = param(1.2, 0.1, 10.0)
+    u_scale: float = param(1.2, 0.1, 10.0, used_only_when={"surface": "terrain"})
     """Terrain noise frequency along u (book: TerrainPlane.uScale)."""
-    v_scale: float = param(1.5, 0.1, 10.0)
+    v_scale: float = param(1.5, 0.1, 10.0, used_only_when={"surface": "terrain"})
     """Terrain noise frequency along v (book: vScale)."""
-    u_offset: float = param(0.0, -1e4, 1e4)
+    u_offset: float = param(0.0, -1e4, 1e4, used_only_when={"surface": "terrain"})
     """Terrain noise offset along u (book: uOffset)."""
-    v_offset: float = param(0.0, -1e4, 1e4)
+    v_offset: float = param(0.0, -1e4, 1e4, used_only_when={"surface": "terrain"})
     """Terrain noise offset along v (book: vOffset)."""
     builder: str = param("numpy", choices=BUILDERS)
     """Who builds the mesh: numpy (the book's loops as arrays) or the GridVertices/GridNormals/GridTriangles kernels."""
@@ -239,7 +239,7 @@ class TubularParams(MeshParams):
     """Close the tube: the curve and the frames wrap, the last ring repeats the first (book: closed)."""
     curve: str = param("script", choices=tuple(CURVES))
     """Control points: Tubular.unity's, CurveBase.cs's default, or a trefoil knot (ugpcl)."""
-    variant: str = param("fixed", choices=("fixed", "book"))
+    variant: str = param("fixed", choices=("fixed", "book"), used_only_when={"closed": True})
     """Closed frames: the twist correction as meant (fixed), or the book's, converted with Deg2Rad twice."""
 
 
@@ -308,7 +308,7 @@ class TreeParams(MeshParams):
     """Seconds for _T to go from 0 to 1."""
     trees: int = param(1, 1, 4096)
     """Trees in a square grid (ugpcl: the forest); tree k is the same alone or in a forest."""
-    spacing: float = param(3.0, 0.5, 100.0)
+    spacing: float = param(3.0, 0.5, 100.0, ignored_when={"trees": 1})
     """Distance between neighbouring trees of the forest."""
     builder: str = param("numpy", choices=BUILDERS)
     """Who builds the rings and triangles: numpy or the TubeRings/TubeTriangles kernels (one launch for all)."""

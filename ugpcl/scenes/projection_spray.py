@@ -74,7 +74,9 @@ class Params(BaseParams):
     """Paint alpha per second (the sample: emission)."""
     hue_cycle: bool = param(True, live=True)
     """Colour = HSV((time * 0.1) mod 1, 1, 1) as the sample sets it every frame; false: ``color``."""
-    color: tuple[float, float, float, float] = param((1.0, 0.692, 0.0, 1.0), 0.0, 1e4, live=True)
+    color: tuple[float, float, float, float] = param(
+        (1.0, 0.692, 0.0, 1.0), 0.0, 1e4, live=True, ignored_when={"hue_cycle": True}
+    )
     """Spray colour rgba when the hue does not cycle (the sample's material colour)."""
     clear_color: tuple[float, float, float, float] = param((0.0, 0.0, 0.0, 1.0), 0.0, 1e4)
     """Unpainted canvas colour (the sample's scene: black)."""
@@ -82,11 +84,11 @@ class Params(BaseParams):
     """Spray on (the sample's left mouse button): paint; off: only the guide shows the footprint."""
     aim: str = param("orbit", choices=("orbit", "fixed", "mouse"), live=True)
     """orbit: the spray circles the objects; fixed: it stays at the preset's start; mouse: it looks at ``aim_at``."""
-    orbit_period: float = param(8.0, 0.01, 1e4, live=True)
+    orbit_period: float = param(8.0, 0.01, 1e4, live=True, used_only_when={"aim": "orbit"})
     """Seconds per revolution of the spray around the objects (aim=orbit)."""
-    aim_period: float = param(4.0, 0.01, 1e4, live=True)
+    aim_period: float = param(4.0, 0.01, 1e4, live=True, used_only_when={"aim": "orbit"})
     """Seconds per revolution of the aim point on its circle (aim=orbit)."""
-    aim_radius: float = param(3.0, 0.0, 1e3, live=True)
+    aim_radius: float = param(3.0, 0.0, 1e3, live=True, used_only_when={"aim": "orbit"})
     """Radius of the aim point's circle around the preset's centre, units (aim=orbit)."""
     rotation_speed: float = param(20.0, -3600.0, 3600.0, live=True)
     """Spin of the objects about +y, degrees per second (the sample's Rotater)."""

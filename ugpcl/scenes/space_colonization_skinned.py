@@ -63,7 +63,7 @@ class Params(GrowthParams):
     """Distance unit = voxel size x unit_scale (book: unitScale)."""
     anim_time: float = param(0.0, 0.0, 1e6)
     """Animation clock at reset, s of the clip. Up to 1e6 s: float32 time still resolves 1/16 s."""
-    anim_speed: float = param(0.35, 0.0, 1e3, live=True)
+    anim_speed: float = param(0.35, 0.0, 1e3, live=True, ignored_when={"animate": False})
     """Clip seconds per second (book scene: Animator speed 0.35). Up to 1e3."""
     anim_period: float = param(2.4, 0.1, 1e4, live=True)
     """Length of the dance loop, clip seconds. Up to 1e4 s."""

@@ -97,10 +97,10 @@ class Params(BaseParams):
     diff: float = param(10.0, 0.0, 1e6, live=True)
     """Density diffusion kappa; a_d = dt*diff*w*h (book: diff; the sample scene's 10, code default 0).
     Up to 1e6: a <= 1.7e13 keeps the Jacobi sums finite in float32."""
-    visc: float = param(20.0, 0.0, 1e6, live=True)
+    visc: float = param(20.0, 0.0, 1e6, live=True, ignored_when={"density_only": True})
     """Kinematic viscosity nu; a_v = dt*visc*w*h (book: visc; the sample scene's 20, code default 0).
     Up to 1e6: a <= 1.7e13 keeps the Jacobi sums finite in float32."""
-    velocity_coef: float = param(2.0, 0.0, 1e4, live=True)
+    velocity_coef: float = param(2.0, 0.0, 1e4, live=True, ignored_when={"density_only": True})
     """Gain of the brush's velocity, per second (book: velocityCoef). Up to 1e4: the sources stay finite in float32."""
     density_coef: float = param(2.0, 0.0, 1e4, live=True)
     """Gain of the brush's density, per second (book: densityCoef). Up to 1e4: the sources stay finite in float32."""
@@ -117,12 +117,12 @@ class Params(BaseParams):
     """Render only: ink colour = white*(1 - ink_gain*density) (book: Sample.shader). Up to 1e4."""
     variant: str = param("fixed", choices=("fixed", "book"), live=True)
     """fixed: Stam's divergence, back-trace clamped; book: the original's divergence, no clamp, corner typo."""
-    solver: str = param("vol1", choices=("vol1", "vol4"), live=True)
+    solver: str = param("vol1", choices=("vol1", "vol4"), live=True, ignored_when={"density_only": True})
     """vol1: this chapter's step; vol4: the stripped copy in vol.4 ch.6 (no pressure sweeps, no AdvectVelocity)."""
     stroke: str = param("circle", choices=STROKES, live=True)
     """Scripted brush: circle (radius 0.25 around the centre, one turn per 120 frames), line (uv 0.3 -> 0.7 at
     v = 0.5 in 120 frames), figure8, none (not in the book: replaces the mouse headless)."""
-    stroke_frames: int = param(120, 0, 1 << 30, live=True)
+    stroke_frames: int = param(120, 0, 1 << 30, live=True, ignored_when={"stroke": "none"})
     """Frames the scripted stroke holds the brush down from its start; 0 = for the whole run. At most 2^30 frames."""
     local_size: tuple[int, int] = param((32, 32), 1, 1024, live=True)
     """Work-group shape of the grid kernels (book: numthreads(32, 32, 1)); halved where the device cannot run it."""

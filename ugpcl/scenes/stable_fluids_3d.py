@@ -95,10 +95,10 @@ class Params(BaseParams):
     diff: float = param(10.0, 0.0, 1e6, live=True)
     """Density diffusion coefficient kappa; a_d = dt*diff*w*h*d (book: diff; scene 10, code default 0).
     Up to 1e6: a <= 3.4e13 keeps the Jacobi sums finite in float32."""
-    visc: float = param(20.0, 0.0, 1e6, live=True)
+    visc: float = param(20.0, 0.0, 1e6, live=True, ignored_when={"density_only": True})
     """Kinematic viscosity nu; a_v = dt*visc*w*h*d (book: visc; scene 20, code default 0).
     Up to 1e6: a <= 3.4e13 keeps the Jacobi sums finite in float32."""
-    velocity_coef: float = param(2.0, 0.0, 1e4, live=True)
+    velocity_coef: float = param(2.0, 0.0, 1e4, live=True, ignored_when={"density_only": True})
     """Gain of the source's velocity, per second (book: velocityCoef; 2D sample scene 2; see SCENE_DEFAULTS).
     Up to 1e4: the sources stay finite in float32."""
     density_coef: float = param(2.0, 0.0, 1e4, live=True)
@@ -111,14 +111,18 @@ class Params(BaseParams):
     emitter: bool = param(True, live=True)
     """Scripted source on: a continuous spherical emitter, headless runs' stand-in for a source (not in the book: its
     sample has no 3D scene)."""
-    emitter_frames: int = param(0, 0, 1 << 30, live=True)
+    emitter_frames: int = param(0, 0, 1 << 30, live=True, ignored_when={"emitter": False})
     """Frames the emitter blows from the start; 0 = the whole run (120: a puff, then the smoke drifts).
     At most 2^30 frames."""
-    emitter_center: tuple[float, float, float] = param((0.5, 0.15, 0.5), 0.0, 1.0, live=True)
+    emitter_center: tuple[float, float, float] = param(
+        (0.5, 0.15, 0.5), 0.0, 1.0, live=True, ignored_when={"emitter": False}
+    )
     """Centre c of the spherical emitter in uvw units, (0, 0, 0) = the grid's bottom-left-front corner."""
-    emitter_direction: tuple[float, float, float] = param((0.0, 1.0, 0.0), -1.0, 1.0, live=True)
+    emitter_direction: tuple[float, float, float] = param(
+        (0.0, 1.0, 0.0), -1.0, 1.0, live=True, ignored_when={"emitter": False}
+    )
     """Velocity the emitter blows (its dir; the 2D brush's clamped mouse delta), before velocity_coef."""
-    source_radius: float = param(0.08, 0.0, 1.0, lo_open=True, live=True)
+    source_radius: float = param(0.08, 0.0, 1.0, lo_open=True, live=True, ignored_when={"emitter": False})
     """Emitter radius r in uvw units: f = clamp(1 - |(uvw - c)/r|^2, 0, 1) (book 2D: sourceRadius)."""
     variant: str = param("fixed", choices=("book", "fixed"), live=True)
     """fixed: Stam's divergence, back-trace clamped to the grid; book: the original's divergence and no clamp."""

@@ -116,18 +116,24 @@ class Params(BaseParams):
     """Rotation of the star, degrees (book: angleOfStreak, inspector 0-360)."""
     num_of_streak: int = param(4, 1, 16)
     """Number of streak directions, 360/num_of_streak degrees apart (book: numOfStreak)."""
-    color: tuple[float, float, float, float] = param((1.0, 1.0, 1.0, 1.0), 0.0, 1e4, live=True)
+    color: tuple[float, float, float, float] = param(
+        (1.0, 1.0, 1.0, 1.0),
+        0.0,
+        1e4,
+        live=True,
+        used_only_when={"composite_type": {"colored_additive", "colored_screen"}},
+    )
     """Tint of the colored_* composite types (book: color)."""
     input: str = "demo"
     """Source frame: ``demo`` (lit spheres, rendered by DemoScene) or an image file (.png, .npy float HDR (H, W, 3|4)),
     at most 8192 pixels a side and 2 GiB."""
-    input_gain: float = param(1.0, 0.0, 1e4)
+    input_gain: float = param(1.0, 0.0, 1e4, ignored_when={"input": "demo"})
     """Scale of an image input (PNG values are <= 1: raise it, or lower threshold, to make them glow)."""
-    width: int = param(640, 1, 8192)
+    width: int = param(640, 1, 8192, used_only_when={"input": "demo"})
     """Width W of the demo frame, pixels (an image input has its own size)."""
-    height: int = param(360, 1, 8192)
+    height: int = param(360, 1, 8192, used_only_when={"input": "demo"})
     """Height H of the demo frame, pixels (an image input has its own size)."""
-    spheres: int = param(24, 1, 1024)
+    spheres: int = param(24, 1, 1024, used_only_when={"input": "demo"})
     """Spheres of the demo frame."""
     variant: str = param("book", choices=("book", "fused"), live=True)
     """book: one launch per pass and direction; fused: one 3-D launch per pass, the last fused with pass 3."""

@@ -43,9 +43,9 @@ class Params(BaseParams):
     diff: float = param(10.0, 0.0, 1e6, live=True)
     """Density diffusion (book: diff; FuidTessellation's Solver).
     Up to 1e6: a <= 1.7e13 keeps the Jacobi sums finite in float32."""
-    visc: float = param(100.0, 0.0, 1e6, live=True)
+    visc: float = param(100.0, 0.0, 1e6, live=True, ignored_when={"density_only": True})
     """Velocity diffusion (book: visc). Up to 1e6: a <= 1.7e13 keeps the Jacobi sums finite in float32."""
-    velocity_coef: float = param(4.0, 0.0, 1e4, live=True)
+    velocity_coef: float = param(4.0, 0.0, 1e4, live=True, ignored_when={"density_only": True})
     """Brush velocity gain (book: velocityCoef). Up to 1e4: the sources stay finite in float32."""
     density_coef: float = param(6.0, 0.0, 1e4, live=True)
     """Brush density gain (book: densityCoef). Up to 1e4: the sources stay finite in float32."""
@@ -58,7 +58,7 @@ class Params(BaseParams):
     stroke: str = param("circle", choices=STROKES, live=True)
     """Scripted brush path (not in the book: a headless stand-in for the mouse): circle, line, figure8 or none; the
     mouse overrides it."""
-    stroke_frames: int = param(0, 0, 1 << 30, live=True)
+    stroke_frames: int = param(0, 0, 1 << 30, live=True, ignored_when={"stroke": "none"})
     """Frames the scripted stroke holds the brush down; 0 = every frame (the button held down throughout).
     At most 2^30 frames."""
     edge_length: float = param(2.0, 2.0, 50.0, live=True)
@@ -129,6 +129,7 @@ class Simulation(BaseSimulation):
 
     def _reset(self) -> None:
         self.fluid = FluidSimulation(self.runtime, self.fluid_params(), self.seed)
+        self.fluid.warns_ignored = False  # driven by these Params: update() says what they leave unused
         self.stroke_uv: list[tuple[float, float]] = []
         self.stroke_vel: list[tuple[float, float]] = []
 
