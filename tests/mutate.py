@@ -326,7 +326,7 @@ def mutate_chapter(stem: str, snapshot: Path, args) -> dict:
     order = drawn(text, args.seed)
     report = {"chapter": stem, "file": f"clkernels/{stem}.cl", "tests": tests, "candidates": len(order)}
     print(f"{stem}.cl: {len(order)} candidate sites, tests: {' '.join(tests)}", flush=True)
-    threads = max(1, (os.cpu_count() or 1) // args.jobs) if args.jobs > 1 else 0
+    threads = args.threads or (max(1, (os.cpu_count() or 1) // args.jobs) if args.jobs > 1 else 0)
 
     def run(source: str) -> tuple[str, float, str]:
         return run_one(snapshot, stem, source, tests, args.timeout, threads)
@@ -412,6 +412,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--mutants", type=int, default=15, help="mutants that build, per chapter (default 15)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the draw (default 0)")
     parser.add_argument("--jobs", type=int, default=1, help="mutants tested at once (default 1)")
+    parser.add_argument(
+        "--threads", type=int, default=0, help="PoCL threads per test run (default: the cores / JOBS when JOBS > 1)"
+    )
     parser.add_argument("--timeout", type=float, default=300, help="seconds per test run; past it, killed (300)")
     parser.add_argument("--json", type=Path, help="write the results here (for the table of docs/testing.md)")
     parser.add_argument("--list", action="store_true", help="print the first MUTANTS drawn; run nothing")
