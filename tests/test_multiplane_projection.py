@@ -109,10 +109,38 @@ def test_golden_table_at_the_centre_and_off_centre(runtime):
         assert moved.proj[k][1, 1] == pytest.approx(1 / math.tan(math.radians(moved.vfov_deg[k]) / 2), rel=1e-9)
 
 
-def test_projection_equals_glm_frustum_and_the_books_lens_shift_for_random_eyes(seed):
+def book_projection(face_size, position_offset, face_distance: float, near: float, far: float) -> np.ndarray:
+    """A face camera's projection matrix as the chapter makes it, with nothing of ugpcl. Listing 9.1: aspect =
+    faceSize.x / faceSize.y, fieldOfView = 2 Atan2(faceSize.y * 0.5, distance) * Rad2Deg, with distance from the
+    eye to the face (faceDistance + positionOffset.z, as the sample tracks the eye). Camera.projectionMatrix of that
+    camera, from the conditions of section 9.3: the view looks down -z and C_w = -V_z (Proj[3,2] = -1); the
+    upper-right corner N of the near plane lands on NDC x = y = 1 (Proj[0,0] = N_z / N_x, Proj[1,1] = N_z / N_y with
+    the near distance for N_z); NDC z = C_z / C_w maps N_z to -1 and F_z to 1 (Proj[2,2], Proj[2,3] solved from those
+    two equations here, not copied: the printed system divides by N_z and F_z instead of C_w = -V_z, so the printed
+    (F_z + N_z) / (F_z - N_z) and -2 F_z N_z / (F_z - N_z) come out with the opposite sign, 1.00015 and 0.60005 for
+    n = 0.3, f = 4000, where Unity's OpenGL-style matrix holds -1.00015 and -0.60005). Listing 9.2: shift =
+    (positionOffset.x / faceSize.x, positionOffset.y / faceSize.y) * 2 into Proj[0,2], Proj[1,2]."""
+    width, height = face_size
+    distance = face_distance + position_offset[2]
+    aspect = width / height  # Listing 9.1
+    field_of_view = 2.0 * math.atan2(height * 0.5, distance) * (180.0 / math.pi)
+    half_height = near * math.tan(math.radians(field_of_view) / 2)  # N = (half_height * aspect, half_height, -near)
+    proj = np.zeros((4, 4))
+    proj[0, 0] = near / (half_height * aspect)  # N_x / C_w = 1
+    proj[1, 1] = near / half_height  # N_y / C_w = 1
+    n_z, f_z = -near, -far
+    # (a V_z + b) / (-V_z) = -1 at V_z = N_z and +1 at F_z: a N_z + b = N_z, a F_z + b = -F_z
+    proj[2, 2], proj[2, 3] = np.linalg.solve([[n_z, 1.0], [f_z, 1.0]], [n_z, -f_z])
+    proj[3, 2] = -1.0
+    shift = np.array([position_offset[0] / width, position_offset[1] / height]) * 2.0  # Listing 9.2
+    proj[0, 2], proj[1, 2] = shift
+    return proj
+
+
+def test_projection_equals_glm_frustum_and_the_books_listings_for_random_eyes(seed):
     rng = np.random.default_rng(seed)
     eyes = random_eyes(rng, 2_000)  # 12,000 face matrices: any formula error shows in the first few
-    worst_glm = worst_book = 0.0
+    worst_glm = worst_book = worst_helper = 0.0
     for eye in eyes:
         cameras = face_cameras(ROOM, eye, 6)
         proj = cameras.proj
@@ -127,16 +155,17 @@ def test_projection_equals_glm_frustum_and_the_books_lens_shift_for_random_eyes(
             )
             expected = np.array(glm.frustum(*bounds, NEAR, far))  # numpy gets glm's rows (float32)
             worst_glm = max(worst_glm, float((np.abs(proj[k] - expected) / np.maximum(np.abs(expected), 1)).max()))
-            # Listing 9.1 + 9.2: FOV and aspect from the face, shift = 2 (-E.R, -E.U) / (W, H) from the book's offset
-            offset = -np.array([eye @ R[k], eye @ U[k]])
-            book = lens_shift_projection(
-                math.degrees(2 * math.atan2(h / 2, DIST[k] - eye @ F[k])), w / h, 2 * offset / (w, h), NEAR, far
-            )
+            # the sample's positionOffset = inverse(faceRotation) * -eye: the eye's offset seen in the face's axes
+            position_offset = -np.array([eye @ R[k], eye @ U[k], eye @ F[k]])
+            book = book_projection(SIZE[k], position_offset, DIST[k], NEAR, far)
             worst_book = max(worst_book, float(np.abs(proj[k] - book).max()))
+            # the module's own helper of the two listings (not what the scene draws with) agrees as well
+            fov = math.degrees(2 * math.atan2(h / 2, d))
+            helper = lens_shift_projection(fov, w / h, 2 * position_offset[:2] / (w, h), NEAR, far)
+            worst_helper = max(worst_helper, float(np.abs(helper - book).max()))
     # glm computes in float32 (a few ulp: 1.2e-6 absolute on entries near 4), so 1e-6 relative to entries >= 1;
     # ours and the book's form are float64 and agree to rounding
-    assert worst_glm < 1e-6, worst_glm
-    assert worst_book < 1e-12, worst_book
+    assert worst_glm < 1e-6 and worst_book < 1e-12 and worst_helper < 1e-12, (worst_glm, worst_book, worst_helper)
 
 
 def test_face_corners_project_to_the_ndc_corners(seed):

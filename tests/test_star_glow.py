@@ -3,6 +3,7 @@ the rules of threshold and modes, the fused variant, the GL passes, the headless
 
 from __future__ import annotations
 
+import math
 import re
 
 import numpy as np
@@ -12,7 +13,7 @@ from scipy import ndimage
 
 from ugpcl.bench.star_glow import streak_line_kernel
 from ugpcl.registry import get
-from ugpcl.scenes.star_glow import COMPOSITE_TYPES, Params, Simulation, streak_directions
+from ugpcl.scenes.star_glow import COMPOSITE_TYPES, Params, Simulation
 
 # {{{ numpy float64 reference, written from the book's StarGlow.shader passes and StarGlow.cs
 
@@ -321,10 +322,76 @@ def test_screen_never_exceeds_additive_and_modes_stay_in_range(runtime, tmp_path
     assert dst["debug"].max() > 1.0  # the glow alone, unclamped
 
 
-def test_directions_and_sizes_follow_the_book(runtime):
-    dirs = streak_directions(5, 30.0)
-    theta = np.radians(72.0 * np.arange(1, 6) + 30.0)
-    np.testing.assert_allclose(dirs, np.stack([np.sin(theta), -np.cos(theta)], 1), atol=1e-7)
+def book_streak_angles(num_of_streak: int, angle_of_streak: float) -> np.ndarray:
+    """Where the book's streaks land, degrees counter-clockwise from +x in uv (y up), written from section 4.2 and
+    4.3 without the scene's code: StarGlow.cs sets the offset of direction x = 1..numOfStreak to
+    (Quaternion.AngleAxis(angle * x + angleOfStreak, Vector3.forward) * Vector2.down).normalized with
+    angle = 360 / numOfStreak (the sample's script; the chapter's listing shows the rotation in a comment), and "the
+    streak stretches opposite to the offset given" (4.2). Unity's Quaternion * Vector3 is written out:
+    v' = v + 2 w (q x v) + 2 q x (q x v), q = (axis sin(a/2), cos(a/2))."""
+    angles = []
+    for x in range(1, num_of_streak + 1):
+        half = math.radians(360.0 / num_of_streak * x + angle_of_streak) / 2
+        q, w = np.array([0.0, 0.0, math.sin(half)]), math.cos(half)  # Vector3.forward = (0, 0, 1)
+        down = np.array([0.0, -1.0, 0.0])  # Vector2.down
+        t = 2 * np.cross(q, down)
+        offset = down + w * t + np.cross(q, t)
+        offset /= np.linalg.norm(offset)
+        angles.append(math.degrees(math.atan2(-offset[1], -offset[0])) % 360)  # the streak: -offset
+    return np.sort(angles)
+
+
+def measured_streak_angles(image: np.ndarray, centre, inner: float, outer: float) -> np.ndarray:
+    """Angles (degrees from +x, counter-clockwise, GL rows: y up) of the arms of a star around ``centre`` (x, y)
+    in a single-channel image: the intensity summed along rays from ``inner`` to ``outer`` texels (bilinear, every
+    1/4 degree), cut into arcs where it exceeds a quarter of its maximum, each arc's intensity-weighted circular
+    mean."""
+    phi = np.radians(np.arange(0.0, 360.0, 0.25))
+    radius = np.arange(inner, outer + 1e-9, 0.5)[:, None]
+    x, y = centre[0] + radius * np.cos(phi), centre[1] + radius * np.sin(phi)
+    profile = ndimage.map_coordinates(image.astype(np.float64), [y, x], order=1).sum(axis=0)
+    lit = profile > 0.25 * profile.max()
+    assert not lit.all(), "no gap between the arms"
+    start = np.flatnonzero(~lit)[0]  # begin on a dark ray so that no arc wraps around 0
+    lit, profile, phi = (np.roll(a, -start) for a in (lit, profile, phi))
+    edges = np.diff(np.concatenate([[0], lit.astype(int), [0]]))
+    arcs = zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True)
+    angles = [np.angle((profile[b:e] * np.exp(1j * phi[b:e])).sum(), deg=True) % 360 for b, e in arcs]
+    return np.sort(angles)
+
+
+@pytest.mark.parametrize("variant", ["book", "fused"])
+@pytest.mark.parametrize(
+    "num_of_streak, angle_of_streak",
+    [(5, 30.0), (4, 0.0), (7, 10.0)],  # the Sample scene's 5 at 30 degrees, the script's default 4 at 0, an odd 7
+)
+def test_streaks_land_at_the_books_angles(runtime, tmp_path, variant, num_of_streak, angle_of_streak):
+    """One bright texel in the middle of a dark 160 x 160 frame, rendered at divide 1, three passes (64-texel arms,
+    attenuation 0.97 so the far ends still show): the arms measured in the output image (dst, additive), between 12
+    and 56 texels from the texel, lie at the book's angles to 0.5 degrees (measured: within 0.11 degrees; a wrong
+    sign of angleOfStreak moves the Sample's arms by 12 degrees, a streak on the wrong side by 36)."""
+    size, centre = 160, (80, 80)
+    sim = make(
+        runtime,
+        tmp_path,
+        impulse(size, centre),
+        threshold=0.0,
+        intensity=1.0,
+        divide=1,
+        iteration=3,
+        attenuation=0.97,
+        num_of_streak=num_of_streak,
+        angle_of_streak=angle_of_streak,
+        variant=variant,
+    )
+    dst = sim.images()["dst"][..., 0]
+    got, want = measured_streak_angles(dst, centre, 12.0, 56.0), book_streak_angles(num_of_streak, angle_of_streak)
+    assert len(got) == num_of_streak, f"{len(got)} arms at {np.round(got, 2)}; the book's {np.round(want, 2)}"
+    error = np.abs((got[:, None] - want[None, :] + 180) % 360 - 180).min(axis=0)  # each book arm's nearest
+    assert error.max() <= 0.5, f"arms at {np.round(got, 2)} degrees; the book's {np.round(want, 2)}"
+
+
+def test_sizes_and_launches_follow_the_book(runtime):
     sim = Simulation(runtime, Params(width=1920, height=1080, divide=7, spheres=1), seed=0)
     assert (sim.w, sim.h) == (274, 154)
     assert sim.stats()["launches per frame"] == 1 + 2 + 4 * (5 + 1)  # demo, passes 1 and 4, 4 x (5 streaks, blend)
