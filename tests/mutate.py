@@ -268,13 +268,19 @@ def stop_running() -> None:
                 pass
 
 
-def run_tests(folder: Path, stem: str, tests: list[str], timeout: float, threads: int) -> tuple[str, float, str]:
-    """Run ``tests`` against the kernel folder ``folder``: (status, seconds, detail)."""
+def run_tests(
+    folder: Path, stem: str, tests: list[str], timeout: float, threads: int, oclgrind: bool = False
+) -> tuple[str, float, str]:
+    """Run ``tests`` against the kernel folder ``folder``: (status, seconds, detail). ``oclgrind``: the tests marked
+    oclgrind instead, on the simulator that reports reads and writes out of bounds and data races."""
     env = dict(os.environ, UGPCL_KERNELS=str(folder))
+    if oclgrind:
+        env["OCLGRIND_DATA_RACES"] = "1"
     if threads:  # several jobs share the cores: PoCL's pthread device would start one thread per core in each
         env["POCL_MAX_PTHREAD_COUNT"] = env["POCL_CPU_MAX_CU_COUNT"] = str(threads)  # PoCL < 5, and 5+'s name
     basetemp = folder.parent / "pytest"  # pytest's tmp_path of this run alone: parallel runs never share one
-    cmd = [sys.executable, "-m", "pytest", *tests, *PYTEST_ARGS, f"--basetemp={basetemp}"]
+    args = [*PYTEST_ARGS[:-1], "oclgrind"] if oclgrind else PYTEST_ARGS
+    cmd = [sys.executable, "-m", "pytest", *tests, *args, f"--basetemp={basetemp}"]
     t0 = time.monotonic()
     proc = subprocess.Popen(
         cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True
@@ -291,7 +297,7 @@ def run_tests(folder: Path, stem: str, tests: list[str], timeout: float, threads
         with _lock:
             _running.discard(proc)
     seconds = time.monotonic() - t0
-    if proc.returncode == 0:
+    if proc.returncode == 0 or (oclgrind and proc.returncode == 5):  # 5: no oclgrind test in these files
         return "survived", seconds, ""
     if f"{stem}.cl: build failed" in out:  # ugpcl.runtime.BuildError of the mutated file: it never ran
         return "stillborn", seconds, POISON if POISON in out else ""
@@ -302,13 +308,21 @@ def run_tests(folder: Path, stem: str, tests: list[str], timeout: float, threads
     return "error", seconds, "\n".join(out.strip().splitlines()[-5:])  # pytest's own trouble: no verdict
 
 
-def run_one(snapshot: Path, stem: str, source: str, tests: list[str], timeout: float, threads: int):
-    """Copy the kernel folder, write ``source`` as ``<stem>.cl`` there and run the tests on it."""
+def run_one(
+    snapshot: Path, stem: str, source: str, tests: list[str], timeout: float, threads: int, oclgrind: bool = False
+):
+    """Copy the kernel folder, write ``source`` as ``<stem>.cl`` there and run the tests on it; a survivor, with
+    ``oclgrind``, runs the chapter's Oclgrind tests too (a guard loosened by one reads past a buffer there)."""
     with tempfile.TemporaryDirectory(prefix=f"ugpcl-mutate-{stem}-") as tmp:
         folder = Path(tmp) / "clkernels"
         shutil.copytree(snapshot, folder)
         (folder / f"{stem}.cl").write_text(source)
-        return run_tests(folder, stem, tests, timeout, threads)
+        status, seconds, detail = run_tests(folder, stem, tests, timeout, threads)
+        if status == "survived" and oclgrind:
+            status, more, detail = run_tests(folder, stem, tests, timeout, threads, oclgrind=True)
+            seconds += more
+            detail = f"{detail} (Oclgrind)" if status == "killed" else detail
+        return status, seconds, detail
 
 
 def line_of(r: Result, stem: str) -> str:
@@ -328,8 +342,8 @@ def mutate_chapter(stem: str, snapshot: Path, args) -> dict:
     print(f"{stem}.cl: {len(order)} candidate sites, tests: {' '.join(tests)}", flush=True)
     threads = args.threads or (max(1, (os.cpu_count() or 1) // args.jobs) if args.jobs > 1 else 0)
 
-    def run(source: str) -> tuple[str, float, str]:
-        return run_one(snapshot, stem, source, tests, args.timeout, threads)
+    def run(source: str, oclgrind: bool = False) -> tuple[str, float, str]:
+        return run_one(snapshot, stem, source, tests, args.timeout, threads, oclgrind)
 
     if not args.no_checks:
         # The tests must pass on an unmutated copy (else every mutant is "killed") and must fail to build a copy
@@ -358,11 +372,16 @@ def mutate_chapter(stem: str, snapshot: Path, args) -> dict:
         try:
             # Only as many in flight as are still needed: the mutants run are the first MUTANTS of the draw that
             # build, whatever order the jobs finish in.
+            only = list(args.only or [])
             while True:
                 built = sum(r.status != "stillborn" for r in results)
-                while next_index < len(order) and built + len(pending) < args.mutants:
+                while only:  # --only: these places of the draw, no others
+                    next_index = only.pop(0)
                     m = order[next_index]
-                    pending[pool.submit(run, apply(text, m))] = (next_index, m)
+                    pending[pool.submit(run, apply(text, m), args.oclgrind)] = (next_index, m)
+                while not args.only and next_index < len(order) and built + len(pending) < args.mutants:
+                    m = order[next_index]
+                    pending[pool.submit(run, apply(text, m), args.oclgrind)] = (next_index, m)
                     next_index += 1
                 if not pending:
                     break
@@ -418,6 +437,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--timeout", type=float, default=300, help="seconds per test run; past it, killed (300)")
     parser.add_argument("--json", type=Path, help="write the results here (for the table of docs/testing.md)")
     parser.add_argument("--list", action="store_true", help="print the first MUTANTS drawn; run nothing")
+    parser.add_argument(
+        "--only", type=lambda t: [int(i) for i in t.split(",")], help="run only these places of the draw (0,7,9)"
+    )
+    parser.add_argument(
+        "--oclgrind", action="store_true", help="a survivor also runs the chapter's Oclgrind tests (much slower)"
+    )
     parser.add_argument("--no-checks", action="store_true", help="skip the unmutated and unbuildable copies' runs")
     args = parser.parse_args(argv)
     chosen = stems if args.chapter == "all" else args.chapter.split(",")
