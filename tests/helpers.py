@@ -50,6 +50,26 @@ def most_common_colour(pixels: np.ndarray) -> np.ndarray:
     return np.array([top >> 16, (top >> 8) & 255, top & 255]) / 255.0
 
 
+def subject(pixels: np.ndarray) -> tuple[float, tuple[int, int, int, int]]:
+    """Share of the pixels that differ from the most common colour (the background wherever the subject does not
+    fill the picture) and the bounding box (x0, y0, x1, y1) of those pixels."""
+    mask = foreground(pixels, most_common_colour(pixels))
+    ys, xs = np.nonzero(mask)
+    return float(mask.mean()), (xs.min(), ys.min(), xs.max(), ys.max()) if len(xs) else (0, 0, 0, 0)
+
+
+def judge_picture(pixels: np.ndarray, check, what: str) -> None:
+    """Assert that a picture shows its subject as a scene's ``preview_check`` asks: more than ``min_subject`` of
+    the frame, its bounding box clear of the frame's edge unless ``fills_frame`` says why it may not."""
+    share, (x0, y0, x1, y1) = subject(pixels)
+    assert share > check.min_subject, f"{what}: the subject covers {share:.1%} of the frame (needs > {check.min_subject:.1%})"
+    if not check.fills_frame:
+        h, w = pixels.shape[:2]
+        assert x0 > 0 and y0 > 0 and x1 < w - 1 and y1 < h - 1, (
+            f"{what}: the subject's box ({x0}, {y0})-({x1}, {y1}) touches the frame's edge (cut off)"
+        )
+
+
 def first_mismatch(actual: np.ndarray, expected: np.ndarray, rtol: float, atol: float) -> str:
     """Where an allclose check fails first: index, value and expected value (for assertion messages)."""
     bad = ~np.isclose(actual, expected, rtol=rtol, atol=atol)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import foreground, most_common_colour
+from helpers import judge_picture
 from PIL import Image
 
 from ugpcl.docs import PREVIEW_SIZE, ROOT, tables
@@ -17,14 +17,6 @@ def test_generated_tables_are_up_to_date(capsys):
     assert tables(check=True) == 0, capsys.readouterr().out
 
 
-def subject(pixels: np.ndarray) -> tuple[float, tuple[int, int, int, int]]:
-    """Share of the pixels that differ from the most common colour (the background wherever the subject does not
-    fill the picture) and the bounding box (x0, y0, x1, y1) of those pixels."""
-    mask = foreground(pixels, most_common_colour(pixels))
-    ys, xs = np.nonzero(mask)
-    return float(mask.mean()), (xs.min(), ys.min(), xs.max(), ys.max()) if len(xs) else (0, 0, 0, 0)
-
-
 @pytest.mark.parametrize("name", list(scenes()))
 def test_preview_picture_shows_the_scene(name):
     """docs/img/<scene>.png (make png) is there at the preview size and shows its subject as a person would want to
@@ -35,15 +27,7 @@ def test_preview_picture_shows_the_scene(name):
     with Image.open(path) as image:
         assert image.size == PREVIEW_SIZE, f"{path.name} is {image.size}, run make png"
         pixels = np.asarray(image.convert("RGB"))
-    share, (x0, y0, x1, y1) = subject(pixels)
-    check = scenes()[name].preview_check
-    minimum = check.min_subject
-    assert share > minimum, f"{path.name}: the subject covers {share:.1%} of the frame (needs > {minimum:.1%})"
-    if not check.fills_frame:
-        w, h = PREVIEW_SIZE
-        assert x0 > 0 and y0 > 0 and x1 < w - 1 and y1 < h - 1, (
-            f"{path.name}: the subject's box ({x0}, {y0})-({x1}, {y1}) touches the frame's edge (cut off)"
-        )
+    judge_picture(pixels, scenes()[name].preview_check, path.name)
 
 
 def test_mesh_files_round_trip(tmp_path):

@@ -443,10 +443,11 @@ def test_run_grass_writes_the_chapter_page_arrays_and_a_lawn(capsys, tmp_path):
     pixels = np.asarray(Image.open(png).convert("RGB"))
     mask = foreground(pixels, (0, 0, 0))
     # the book's camera (0, 30, -85), FOV 60: the 2x3 planes are a patch of lawn in the middle of the frame
+    from ugpcl.viewer.offscreen import PICTURE_ASPECT
     from ugpcl.viewer.views.grass import book_grass_camera
 
     camera = book_grass_camera()
-    camera.aspect = 96 / 72
+    camera.aspect, camera.framed_aspect = 96 / 72, PICTURE_ASPECT  # as --png frames it
     rows, cols = project(camera, data["blade_pos"].reshape(-1, 3), (96, 72))
     inside = np.zeros_like(mask)
     inside[max(rows.min() - 1, 0) : rows.max() + 2, max(cols.min() - 1, 0) : cols.max() + 2] = True

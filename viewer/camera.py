@@ -37,6 +37,16 @@ class OrbitCamera:
     far: float = 1000.0
     left_handed: bool = True
     aspect: float = field(default=16 / 9)
+    framed_aspect: float | None = None
+    """The aspect the scene was framed for: a narrower picture widens the vertical field of view so that the sides
+    stay in, rather than cropping them (pictures set it: ``ugpcl.viewer.offscreen.render``); None: ``fov`` as is."""
+
+    def vertical_fov(self) -> float:
+        """``fov``, widened when the picture is narrower than ``framed_aspect`` (the horizontal field kept)."""
+        if self.framed_aspect is None or self.aspect >= self.framed_aspect:
+            return self.fov
+        half = math.tan(math.radians(self.fov) / 2) * self.framed_aspect / self.aspect
+        return math.degrees(2 * math.atan(half))
 
     def eye(self) -> np.ndarray:
         yaw, pitch = math.radians(self.yaw), math.radians(self.pitch)
@@ -50,7 +60,7 @@ class OrbitCamera:
         return look_at(mirror @ self.eye(), mirror @ np.asarray(self.target, float)) @ MIRROR_Z
 
     def projection(self) -> np.ndarray:
-        return perspective(self.fov, self.aspect, self.near, self.far)
+        return perspective(self.vertical_fov(), self.aspect, self.near, self.far)
 
     def drag(self, dx: float, dy: float) -> None:
         self.yaw += dx * 0.3
@@ -58,6 +68,33 @@ class OrbitCamera:
 
     def zoom(self, steps: float) -> None:
         self.distance = float(np.clip(self.distance * 0.9**steps, self.near * 2, self.far / 2))
+
+    def fit(self, points, fill: float = 0.85, centre: bool = True) -> None:
+        """Frame ``points`` (n, 3) with ``yaw`` and ``pitch`` kept: the eye moves along its line to the target to
+        the distance at which every point lands within ``fill`` of the picture's half-width and half-height at
+        ``framed_aspect`` (and so at any aspect: a narrower picture keeps the horizontal field). The rotation of
+        ``view()`` does not depend on the distance, so that distance is exact: a point q (camera axes, relative to
+        the target) needs |q_x| <= fill tan_h (d - q_z), and the same for y. With ``centre`` the target first
+        slides sideways (a few rounds) until the points' projection is centred in the picture."""
+        points = np.asarray(points, float).reshape(-1, 3)
+        if not len(points):
+            return
+        rotation = self.view()[:3, :3]
+        tan_v = math.tan(math.radians(self.fov) / 2)
+        tan_h = tan_v * self.framed_aspect
+
+        def place() -> np.ndarray:
+            q = (points - np.asarray(self.target, float)) @ rotation.T
+            need = np.maximum(np.abs(q[:, 0]) / (fill * tan_h), np.abs(q[:, 1]) / (fill * tan_v))
+            self.distance = float(max((q[:, 2] + need).max(), (q[:, 2] + 2 * self.near).max(), self.near * 2))
+            return q
+
+        for _ in range(3 if centre else 0):
+            q = place()
+            x, y = (q[:, :2] / (self.distance - q[:, 2:3])).T  # tangents of the angles off the view axis
+            shift = (x.min() + x.max()) / 2 * rotation[0] + (y.min() + y.max()) / 2 * rotation[1]
+            self.target = tuple(float(c) for c in np.asarray(self.target, float) + self.distance * shift)
+        place()
 
 
 @dataclass
@@ -70,7 +107,8 @@ class OrthoCamera(OrbitCamera):
     """Half-width always shown: a narrow window grows the height instead of cropping the sides."""
 
     def projection(self) -> np.ndarray:
-        h = max(self.half_height, self.min_half_width / self.aspect)
+        framed = self.half_height * (self.framed_aspect or 0.0) / self.aspect
+        h = max(self.half_height, self.min_half_width / self.aspect, framed)
         return orthographic(-h * self.aspect, h * self.aspect, -h, h, self.near, self.far)
 
     def zoom(self, steps: float) -> None:

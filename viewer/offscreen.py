@@ -12,6 +12,9 @@ from ugpcl.runtime import all_devices
 from .gl import read_pixels, save_png
 from .views import View, create_view
 
+PICTURE_ASPECT = 16 / 9
+"""The aspect the views' ``png_camera`` frames a scene for (the 1280x720 previews): a narrower picture (the default
+800x600 ``--png``) widens the vertical field of view instead of cropping the sides."""
 MSAA_SAMPLES = 4
 """Multisampling of offscreen frames (thin lines and small boids alias badly without it)."""
 
@@ -56,6 +59,8 @@ def render(scene, sim, size: tuple[int, int] = (800, 600), view: View | None = N
     view = view or create_view(scene, ctx, sim)
     camera = camera or view.png_camera()
     camera.aspect = size[0] / size[1]
+    if hasattr(camera, "framed_aspect"):  # views frame their pictures at 16:9 (the previews): keep the sides in
+        camera.framed_aspect = PICTURE_ASPECT
     view.upload()
     return frame(tuple(size)).render(view, camera)
 

@@ -27,7 +27,7 @@ from ..geometry import grass as geo
 from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
 from ..geometry.transforms import euler_matrix, translation
-from ..scene import Animation, Scene, param
+from ..scene import Animation, PreviewCheck, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
 
@@ -373,6 +373,7 @@ SCENES = [
         view="GrassView",
         # sin(30/20) ~ 1: the wind's full lean; 6x6 planes: the whole lawn with its edges fits the book's camera
         preview={"steps": 1, "start_time": 30.0, "planes": (6, 6)},
+        preview_check=PreviewCheck(fills_frame="the book's camera sees the default 10x10 lawn run past both sides"),
         animation=Animation(
             "the wind sways the blades, one sway period per loop (wind_time_scale = 2 pi / 1.5 s; the book's 0.05 "
             "sways too slowly to see)",

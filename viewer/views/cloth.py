@@ -129,7 +129,7 @@ class View(BaseView):
 
     def png_camera(self):
         # from the side, where the sphere under the drape shows (from the front the sheet hides it)
-        return OrbitCamera(target=(0.35, 0.2, -0.8), distance=4.6, yaw=-65.0, pitch=6.0)
+        return OrbitCamera(target=(0.35, 0.0, -0.8), distance=5.6, yaw=-65.0, pitch=6.0)
 
     def draw(self, camera) -> None:
         self.ctx.enable(moderngl.DEPTH_TEST)
