@@ -170,3 +170,17 @@ def test_small_bench_rows_carry_their_share(capsys, tmp_path, chapter, size, sha
 
 
 # }}}
+
+
+def test_frames_bench_times_the_parts_of_a_frame(runtime):
+    """``ugpcl bench frames`` on two scenes: a row each, at the sizes a CPU device starts the viewer with, whose frame
+    is its step, upload and draw (the read-back of a picture apart), every part measured."""
+    from ugpcl.bench.frames import bench
+
+    rows = bench(runtime, scenes=["boids", "ear_clipping"])
+    assert [r["scene"] for r in rows] == ["boids", "ear_clipping"]
+    for row in rows:
+        parts = row["step ms"] + row["upload ms"] + row["draw ms"]
+        assert row["ms/frame"] == pytest.approx(parts) and row["frames/s"] == pytest.approx(1e3 / parts)
+        assert all(row[k] > 0 for k in ("step ms", "upload ms", "draw ms", "read-back ms"))
+    assert rows[0]["sizes"] == "interactive"  # boids declares its CPU sizes

@@ -38,13 +38,21 @@ class Frame:
         )
         self.resolved = ctx.framebuffer(color_attachments=[ctx.renderbuffer(size, 4)])
 
-    def render(self, view: View, camera) -> np.ndarray:
+    def draw(self, view: View, camera) -> None:
+        """The view's frame into the multisampled target (what a window shows)."""
         self.msaa.use()
         self.ctx.viewport = (0, 0, *self.size)
         self.ctx.clear(*view.background, 1.0, depth=1.0)
         view.draw(camera)
+
+    def read(self) -> np.ndarray:
+        """The drawn frame resolved and read back as (H, W, 3) uint8, top row first (what a picture needs)."""
         self.ctx.copy_framebuffer(self.resolved, self.msaa)
         return read_pixels(self.resolved)
+
+    def render(self, view: View, camera) -> np.ndarray:
+        self.draw(view, camera)
+        return self.read()
 
 
 @cache
