@@ -17,6 +17,7 @@ from ugpcl.registry import get
 from ugpcl.scenes.cellular_growth import (
     EDGE_DTYPE,
     PARTICLE_DTYPE,
+    START_RADIUS,
     Params,
     ParticleParams,
     ParticleSimulation,
@@ -551,6 +552,28 @@ def test_parallel_divisions_keep_the_graph_whole(runtime, pattern):
         check_pools(sim)
         no_nan(sim)
     assert P > 100 and burst >= 3, (P, burst)
+
+
+def test_first_cell_shows_and_divides_into_the_books_two(runtime):
+    """The book's first cell has radius nrand(0, 0) = 0, invisible under the repository's growth until the first
+    Divide (0.25 s) makes two cells of 0.1; ugpcl's starts at START_RADIUS (0.1), and from that Divide on every
+    record equals the book's (book_text grows a radius of 0 by itself and keeps it)."""
+    sim = get("cellular_growth").create(runtime, 0, count=64)
+    first = sim.particle_records()
+    assert (first["alive"] != 0).sum() == 1 and first["radius"][first["alive"] != 0][0] == np.float32(START_RADIUS)
+    book = get("cellular_growth").create(runtime, 0, count=64)
+    records = book.particle_records()
+    records["radius"][records["alive"] != 0] = 0.0  # the book's Start
+    book.particles.read.set(records)
+    for _ in range(15):
+        sim.step()
+        book.step()
+    ours, theirs = sim.particle_records(), book.particle_records()
+    assert (ours["alive"] != 0).sum() == 2
+    for name in PARTICLE_DTYPE.names:
+        np.testing.assert_array_equal(ours[name], theirs[name], err_msg=name)
+    text = get("cellular_growth").create(runtime, 0, count=64, book_text=True).particle_records()
+    assert text["radius"][text["alive"] != 0][0] == 0.0
 
 
 def test_network_prototype_counts(runtime):

@@ -32,9 +32,9 @@ from ugpcl.registry import get, scenes
 from ugpcl.scenes.procedural_modeling import CURVES, PlaneParams, PlaneSimulation, TreeParams, TreeSimulation
 
 SCENE_NAMES = [name for name in scenes() if name.startswith("procedural_modeling")]
-SMALL = {  # sizes for the CLI and view tests (PoCL on 2 cores)
-    "procedural_modeling": {"generations": 3},
-    "procedural_modeling_forest": {"trees": 4, "generations": 3},
+SMALL = {  # sizes for the CLI and view tests (PoCL on 2 cores); the trees grow from _T = 0 there
+    "procedural_modeling": {"generations": 3, "grow_t": 0.0},
+    "procedural_modeling_forest": {"trees": 4, "generations": 3, "grow_t": 0.0},
 }
 
 
@@ -387,7 +387,8 @@ def test_tree_is_seeded_and_the_same_alone_or_in_a_forest(runtime):
 
 
 def test_growth_clip_advances_with_time(runtime):
-    sim = get("procedural_modeling").create(runtime, generations=3, grow_seconds=2.0)
+    assert get("procedural_modeling").create(runtime, generations=2).grow_t == 1.0  # grown, the chapter's figure
+    sim = get("procedural_modeling").create(runtime, generations=3, grow_seconds=2.0, grow_t=0.0)
     assert sim.grow_t == 0.0 and not sim.visible()[sim.mesh().uvs[:, 1] > 0].any()
     for _ in range(60):
         sim.step(1 / 60)
@@ -554,6 +555,7 @@ def test_run_every_keeps_the_growth_history(capsys, tmp_path):
         str(out),
         "--set",
         "generations=2",
+        "grow_t=0",
     )
     assert code == 0, text
     np.testing.assert_allclose(np.load(out)["grow_t_history"], np.arange(4) * 2 / 60 / 3.0, atol=1e-7)
@@ -649,11 +651,18 @@ def test_the_tree_grows_on_screen(runtime, gl):
         pixels, _, view, camera = render_view(gl, name, sim, size=(160, 120))
         counts.append(foreground(pixels, view.background).sum())
     assert counts[0] <= 0.01 * counts[2] and counts[0] < counts[1] < counts[2]  # _T = 0 keeps uv.y = 0 only
-    # at _T = 0.3 nothing is drawn above the highest vertex with uv.y <= 0.3 (plus a pixel)
+    # at _T = 0.3 nothing is drawn above the kept part of the mesh: the vertices with uv.y <= 0.3 and the points
+    # of the triangles' edges where uv.y (interpolated linearly in the world, as perspective-correct varyings are)
+    # crosses 0.3 (plus a pixel)
     sim.grow_t = 0.3
     pixels, _, view, camera = render_view(gl, name, sim, size=(160, 120))
     m = sim.mesh()
-    low = m.vertices[m.uvs[:, 1] <= 0.3 + 1e-6]
+    a, b = m.faces.reshape(-1), np.roll(m.faces, 1, axis=1).reshape(-1)  # every edge of every triangle
+    ya, yb = m.uvs[a, 1].astype(np.float64), m.uvs[b, 1].astype(np.float64)
+    crossing = (ya - 0.3) * (yb - 0.3) < 0
+    s = ((0.3 - ya[crossing]) / (yb[crossing] - ya[crossing]))[:, None]
+    edge_points = m.vertices[a[crossing]] * (1 - s) + m.vertices[b[crossing]] * s
+    low = np.concatenate([m.vertices[m.uvs[:, 1] <= 0.3 + 1e-6], edge_points])
     clip = (camera.projection() @ camera.view() @ np.column_stack([low, np.ones(len(low))]).T).T
     top_row = ((1 - clip[:, 1] / clip[:, 3]) / 2 * 120 - 0.5).min()
     rows = np.flatnonzero(foreground(pixels, view.background).any(axis=1))

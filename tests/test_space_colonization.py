@@ -16,6 +16,7 @@ from ugpcl.buffers import device_sizeof
 from ugpcl.registry import get
 from ugpcl.scenes.space_colonization import (
     ATTRACTION_DTYPE,
+    BOOK_PACE,
     CANDIDATE_DTYPE,
     EDGE_DTYPE,
     NODE_DTYPE,
@@ -410,6 +411,19 @@ def test_exhausted_pool_stops_at_capacity_and_only_grows(runtime, seed):
     assert after["node_t"][after["node_active"]].min() == 1.0  # Grow went on: every node has matured
 
 
+def test_the_scenes_pace_grows_the_tree_in_ten_steps(runtime):
+    """The scenes run 5 Steps a frame with growth_speed 44 (SHORT_RUN_PACE): 10 steps grow most of the tree that the
+    book's pace (one Step a frame, 22) grows in 120; the Params class keeps the book's pace."""
+    assert (Params().iterations, Params().growth_speed) == (BOOK_PACE["iterations"], BOOK_PACE["growth_speed"])
+    fast = get("space_colonization").create(runtime, 0, side=16)
+    for _ in range(10):
+        fast.step()
+    book = make(runtime, 0, side=16)
+    for _ in range(120):
+        book.step()
+    assert fast.live_nodes >= 0.85 * book.live_nodes, (fast.live_nodes, book.live_nodes)
+
+
 def test_book_defaults_fill_the_sphere(runtime):
     """The book's Line scene (its distances, no repeat guard) at side 16 (A = 1736), 600 steps: the tree fills the
     sphere (at most 1 % of the attractions left, or no free slot), stays inside it, and makes no NaN."""
@@ -428,7 +442,7 @@ def test_book_defaults_fill_the_sphere(runtime):
 
 
 def edge_lengths(runtime, seed: int, **overrides) -> tuple[np.ndarray, Simulation]:
-    sim = get("space_colonization").create(runtime, seed, side=16, **overrides)
+    sim = get("space_colonization").create(runtime, seed, side=16, **BOOK_PACE, **overrides)
     for _ in range(120):  # growth ends near step 80 (guard on) or 115 (off) at this size
         sim.step()
     state = sim.state()
@@ -439,7 +453,8 @@ def edge_lengths(runtime, seed: int, **overrides) -> tuple[np.ndarray, Simulatio
 def test_defaults_make_no_zero_length_edge(runtime):
     """The default repeat guard refuses a candidate on its own node, so no edge is shorter than 1e-3 growth
     distances; the book (repeat_guard=false) makes such edges: 5 and 6 shorter than 1e-6 in these runs on PoCL.
-    The full-size check is `ugpcl run space_colonization --steps 200 --seed 1` (see the chapter page)."""
+    The full-size check is `ugpcl run space_colonization --steps 200 --seed 1 --set iterations=1
+    growth_speed=22` (see the chapter page)."""
     book_zero = 0
     for seed in (1, 2):
         length, sim = edge_lengths(runtime, seed)
@@ -544,8 +559,8 @@ def test_bad_parameters_name_the_field(setting, message):
 
 @pytest.mark.gl
 def test_line_and_tube_views_draw_the_tree_inside_the_sphere(runtime, gl):
-    sim = get("space_colonization").create(runtime, 0, side=16)
-    for _ in range(30):  # half grown: the lines do not yet cover the sphere
+    sim = get("space_colonization").create(runtime, 0, side=16, **BOOK_PACE)
+    for _ in range(30):  # half grown at the book's pace: the lines do not yet cover the sphere
         sim.step()
     edges = sim.live_edges
     w, h = 400, 300  # big enough for the tubes (0.033 world units) to be wider than a line

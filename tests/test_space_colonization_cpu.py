@@ -73,6 +73,21 @@ def test_blog_without_the_guard_is_ended_by_the_stall_detector(runtime):
     assert counts.max() > 1, "without the guard a trapped vertex regrows to the same point"
 
 
+def test_the_scene_runs_ten_iterations_a_step(runtime):
+    """The scene's pace (10 doIterations a step) grows the demo's tree (1 a step) ten times as fast, vertex for
+    vertex, and 10 steps end the crown stage: a short run shows the grown tree."""
+    fast = get("space_colonization_cpu").create(runtime, 2)
+    demo = Simulation(runtime, Params(), 2)
+    for _ in range(3):
+        fast.step()
+    for _ in range(30):
+        demo.step()
+    np.testing.assert_array_equal(fast.tree.vertices, demo.tree.vertices)
+    for _ in range(7):
+        fast.step()
+    assert fast.stage >= 1 and len(fast.tree.vertices) > 2000
+
+
 # }}}
 
 # {{{ headless CLI
@@ -97,7 +112,7 @@ def test_cli_writes_the_chapter_arrays(capsys, tmp_path):
 
 @pytest.mark.gl
 def test_cpu_view_draws_brown_branches(runtime, gl):
-    sim = get("space_colonization_cpu").create(runtime, 0)
+    sim = get("space_colonization_cpu").create(runtime, 0, iterations=1)  # the demo's pace: 60 iterations
     for _ in range(60):
         sim.step()
     pixels = render_view(gl, "space_colonization_cpu", sim, rotate=False)[0]

@@ -72,7 +72,7 @@ class OrbitCamera:
     def fit(self, points, fill: float = 0.85, centre: bool = True) -> None:
         """Frame ``points`` (n, 3) with ``yaw`` and ``pitch`` kept: the eye moves along its line to the target to
         the distance at which every point lands within ``fill`` of the picture's half-width and half-height at
-        ``framed_aspect`` (and so at any aspect: a narrower picture keeps the horizontal field). The rotation of
+        ``framed_aspect`` (else ``aspect``; a picture keeps that horizontal field at any aspect). The rotation of
         ``view()`` does not depend on the distance, so that distance is exact: a point q (camera axes, relative to
         the target) needs |q_x| <= fill tan_h (d - q_z), and the same for y. With ``centre`` the target first
         slides sideways (a few rounds) until the points' projection is centred in the picture."""
@@ -81,7 +81,7 @@ class OrbitCamera:
             return
         rotation = self.view()[:3, :3]
         tan_v = math.tan(math.radians(self.fov) / 2)
-        tan_h = tan_v * self.framed_aspect
+        tan_h = tan_v * (self.framed_aspect or self.aspect)  # a png camera is made at 16:9, framed later
 
         def place() -> np.ndarray:
             q = (points - np.asarray(self.target, float)) @ rotation.T

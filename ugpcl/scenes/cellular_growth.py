@@ -26,7 +26,9 @@ pool empty returns no slot and is counted in ``faults`` (HLSL: undefined behavio
 slots safely. ``book_text`` selects the four formulas printed in the book instead of the repository's (which made the
 figures). ``search=grid`` finds repulsion partners through ``ugpcl.grid.UniformGrid`` instead of all pairs.
 ``normalize(0)`` is guarded everywhere it could occur. ``seed`` shifts the book's clock ``_Time`` (every random draw
-is ``nrand`` of an index and the time) by ``SEED_CLOCK_OFFSET`` seconds per seed.
+is ``nrand`` of an index and the time) by ``SEED_CLOCK_OFFSET`` seconds per seed. The network scenes' first cell starts
+at radius ``START_RADIUS`` (0.1) rather than the book's nrand(0, 0) = 0, which stays 0 and shows nothing until the
+first Divide gives it 0.1 (``Simulation._start``): the same cells from that Divide on.
 """
 
 from __future__ import annotations
@@ -62,6 +64,8 @@ GROUP_SIZE = 128
 """Work-group size of every kernel (book: #define THREAD [numthreads(128, 1, 1)])."""
 INITIAL_EMIT_COUNT = 1
 """Cells the network scenes emit at the origin on reset (book: EmitParticlesKernel(Vector2.zero, 1))."""
+START_RADIUS = 0.1
+"""Smallest radius of the network scenes' first cell (ugpcl): the radius the book's first Divide gives it."""
 MAX_RADIUS = 1.0
 """No radius ever exceeds 1: emitted thresholds are 1 and a child's is at most 2 x max(r / 2, 0.1) <= 1."""
 GRID_CELL_MARGIN = 1.001
@@ -448,9 +452,18 @@ class Simulation(ParticleSimulation):
     has_edges = True
 
     def _start(self) -> None:
-        # book Start(): EmitParticlesKernel(Vector2.zero, 1) before the first Update (_Time 0: radius nrand(0, 0) = 0,
-        # which the first DivideUnconnectedParticles lifts to 0.1)
+        """Book Start(): EmitParticlesKernel(Vector2.zero, 1) before the first Update. At _Time 0 the cell's radius is
+        nrand(0, 0) = 0, which the repository's growth (radius += dt grow radius) keeps at 0: an invisible cell, and
+        a black picture, until the first DivideUnconnectedParticles splits it into two cells of max(r / 2, 0.1) =
+        0.1. ugpcl starts the cell at START_RADIUS (0.1) instead: it shows from the first step, and the first Divide
+        still makes the book's two cells of radius 0.1 (r / 2 < 0.1 either way). The book's printed linear growth
+        lifts a radius of 0 by itself, so book_text keeps it."""
         self.emit_particles((0.0, 0.0), INITIAL_EMIT_COUNT, time=0.0)
+        if not self.params.book_text:
+            records = self.particles.read.get()
+            alive = records["alive"] != 0
+            records["radius"][alive] = np.maximum(records["radius"][alive], START_RADIUS)
+            self.particles.read.set(records)
 
     # {{{ edge kernels, in the book's order
 

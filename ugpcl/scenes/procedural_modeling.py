@@ -2,13 +2,15 @@
 
 Every sample of the chapter is a scene: the quad, the plane, the mountain and terrain planes, the cylinder beside
 the "bad" one that shares its cap vertices, a tube swept along a Catmull-Rom curve with parallel-transported
-frames, the procedural tree (``procedural_modeling``) growing by its ``_T`` clip, a forest of such trees, and the
+frames, the procedural tree (``procedural_modeling``) with its growth clip ``_T``, a forest of such trees, and the
 L-system. The generators are numpy ports of the book's C# (``ugpcl/geometry/procedural.py``); with
 ``builder=opencl`` the large ones run as kernels (``clkernels/procedural_modeling.cl``): the plane's vertices,
 normals and triangles (terrains up to 4096^2) and the rings of every branch of a forest in one launch.
 
 As in the book, every parameter change rebuilds the mesh (ProceduralModelingEditor calls Rebuild()); ``step`` only
-advances time, which the tree uses for its growth ``_T`` (0 to 1 over ``grow_seconds``).
+advances time, which the tree uses for its growth ``_T`` (0 to 1 over ``grow_seconds``). The tree starts grown
+(``grow_t`` 1, the chapter's figure, so a short run shows the whole tree); ``grow_t=0`` or the viewer's ``g`` key
+replays the growth from the ground.
 """
 
 from __future__ import annotations
@@ -302,8 +304,9 @@ class TreeParams(MeshParams):
     """Vertices around a ring minus one (book: radialSegments)."""
     bend_degree: float = param(0.1, 0.0, 0.35)
     """Random sideways bend of a branch's middle, times its length (book: bendDegree)."""
-    grow_t: float = param(0.0, 0.0, 1.0)
-    """The shader's _T at the start: fragments with uv.y > _T are clipped (1: fully grown)."""
+    grow_t: float = param(1.0, 0.0, 1.0)
+    """The shader's _T at the start: fragments with uv.y > _T are clipped (1: fully grown, the chapter's figure;
+    0: the tree grows from the ground over grow_seconds)."""
     grow_seconds: float = param(3.0, 0.1, 600.0, live=True)
     """Seconds for _T to go from 0 to 1."""
     trees: int = param(1, 1, 4096)
@@ -492,7 +495,7 @@ SCENES = [
             every=4,
             start=24,
             swing=25.0,
-            overrides={"grow_seconds": 2.2},
+            overrides={"grow_t": 0.0, "grow_seconds": 2.2},
         ),
         preview_check=PreviewCheck(min_subject=0.02, sparse="one tree of thin branches"),
     ),

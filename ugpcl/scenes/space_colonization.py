@@ -13,6 +13,11 @@ Scenes: ``space_colonization`` (Line scene) and ``space_colonization_tubes`` (Tu
 other stems: ``space_colonization_skinned`` (the book's section 1.4 application, which reuses ``GrowthParams`` and
 ``GrowthSimulation`` from here) and ``space_colonization_cpu`` (the blog's CPU algorithm).
 
+Pace: a ``step`` is one frame of the book's Update, which runs ``iterations`` Steps every ``frame`` frames. The
+scenes run 5 Steps a frame (the inspector's largest ``iterations``) with growth_speed 44 (twice the scene's 22;
+``SHORT_RUN_PACE``), so that a 10-step run shows the grown tree, which the book's pace reaches after about 100
+frames; the Params class keeps the book's values, and ``--set iterations=1 growth_speed=22`` is the book's pace.
+
 Node slots, one rule on the host: ``capacity`` slots in all; ``free_slots`` of them wait in the node pool (the book's
 ``nodesCount``, read back with CopyCount); ``live_nodes = capacity - free_slots`` are active; ``live_edges`` edges
 exist. The ``.npz`` keeps the chapter page's names: ``nodes_free`` (free slots), ``node_count`` (live nodes),
@@ -542,21 +547,37 @@ class Simulation(GrowthSimulation):
 
 # }}}
 
+SHORT_RUN_PACE = {"iterations": 5, "growth_speed": 44.0}
+"""The scenes' pace: the book's Update runs ``iterations`` Steps a frame (its inspector allows 1-5: 5 here), and
+growth_speed is twice the Line scene's 22, so that a node matures in 1-3 Steps instead of 3-11. The scene values
+grow the tree in about 100 frames; at this pace 10 steps (50 Steps) show it grown, as the chapter's figures do. The
+Params class keeps the book's values (iterations 1, growth_speed 22): ``--set iterations=1 growth_speed=22`` is
+the Line scene's own pace, which the page's loop shows."""
+
+BOOK_PACE = {"iterations": 1, "growth_speed": 22.0}
+"""The Line and TubularEdge scenes' own pace (SpaceColonization.cs: one Step a frame, growthSpeed 22)."""
+
 SCENES = [
     Scene(
         "space_colonization",
         Simulation,
         "GPU space colonization: a tree grows through a sphere of attraction points (vol.4 ch.1)",
-        preview={"steps": 240},
+        SHORT_RUN_PACE,
+        preview={"steps": 40},
         interactive={"side": 20},
-        animation=Animation("the branches grow from the seeds through the attraction cloud", every=3, start=12),
+        animation=Animation(
+            "the branches grow from the seeds through the attraction cloud, at the book's pace (one Step a frame)",
+            every=3,
+            start=12,
+            overrides=BOOK_PACE,
+        ),
     ),
     Scene(
         "space_colonization_tubes",
         Simulation,
         "The same tree drawn as capsules by a geometry shader (vol.4 ch.1, TubularEdge scene)",
-        {"render": "tubes"},
-        preview={"steps": 240},
+        {"render": "tubes", **SHORT_RUN_PACE},
+        preview={"steps": 40},
         interactive={"side": 20},
     ),
 ]

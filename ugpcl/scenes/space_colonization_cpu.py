@@ -2,12 +2,17 @@
 Part 1", blog post, 2014: the CPU counterpart of Unity Graphics Programming vol.4 ch.1;
 docs/chapters/12-space-colonization.md).
 
-No kernels: one ``step`` is one of the blog's doIteration, in numpy float64
+No kernels: one ``step`` runs ``iterations`` of the blog's doIteration, in numpy float64
 (``ugpcl.geometry.space_colonization.BlogTree``): every attraction point compares its closest vertex with the
 vertices grown since the last iteration, points within the cut-off distance of their closest vertex die, and every
 vertex pulled by points within the max distance grows one normalised branch (plus the bias) towards their mean
 direction. Reset grows the trunk and appends the three crown clouds; when the crown stage ends the roots cloud is
 appended and the roots stage runs; then nothing grows.
+
+Pace: the blog's demo animates one doIteration a frame, and says that for real use one runs the algorithm and works
+with the finished tree. The Params class keeps one a step (the demo); the scene runs 10 (``SHORT_RUN_PACE``), so
+that 10 steps (100 iterations) end the crown stage (about 95 iterations) and show the grown tree;
+``--set iterations=1`` is the demo's pace.
 
 Differences from the blog: ``repeat_guard`` (on by default; ``--set repeat_guard=false`` is the blog) stops a vertex
 growing to the point it grew to last time; a stage also ends when an iteration grows nothing new or after
@@ -81,6 +86,8 @@ class Params(BaseParams):
     vertex regrows the same point every iteration and the stage is ended by ugpcl's stall detector."""
     max_iterations: int = param(2000, 1, 1 << 20)
     """Iterations per stage at most (ugpcl)."""
+    iterations: int = param(1, 1, 1000, live=True)
+    """doIteration calls per step (ugpcl; the blog's demo animates one a frame)."""
 
     limits = ("root_inner < root_outer",)
 
@@ -138,7 +145,8 @@ class Simulation(BaseSimulation):
             self.tree.add_points(roots, clear=p.clear_leftovers)
 
     def _step(self, dt: float) -> None:
-        self.do_iteration()
+        for _ in range(self.params.iterations):
+            self.do_iteration()
 
     def state(self) -> dict[str, np.ndarray]:
         return {
@@ -171,12 +179,16 @@ class Simulation(BaseSimulation):
         write_mesh(path, self.mesh(), lines=np.asarray(self.tree.segments, np.int64).reshape(-1, 2))
 
 
+SHORT_RUN_PACE = {"iterations": 10}
+"""The scene's pace: 10 doIterations a step, so that a 10-step run shows the grown crown (the demo's pace is 1)."""
+
 SCENES = [
     Scene(
         "space_colonization_cpu",
         Simulation,
         "The blog's CPU space colonization: crown, then roots (vol.4 ch.1 + B. Olij 2014)",
-        preview={"steps": 300},
+        SHORT_RUN_PACE,
+        preview={"steps": 30},
         preview_check=PreviewCheck(min_subject=0.02, sparse="thin branches and their node points"),
     ),
 ]

@@ -4,7 +4,7 @@
 // Normal.shader: (n + 1) / 2 of the object-space normal. ProceduralTree.cginc's growth clip: clip(_T - uv.y).
 #include "lighting.glsl"
 in vec3 v_normal;
-in vec2 v_uv;
+centroid in vec2 v_uv;  // sampled inside the triangle, so the growth clip holds at grazed pixels' edges too
 
 uniform int material;  // 0 Standard, 1 UV, 2 Normal
 uniform float grow_t;  // _T

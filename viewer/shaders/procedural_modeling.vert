@@ -10,7 +10,7 @@ uniform mat4 m_view;
 uniform mat4 m_model;
 
 out vec3 v_normal;
-out vec2 v_uv;
+centroid out vec2 v_uv;  // centroid: a pixel a triangle only grazes (MSAA) takes uv from inside it, not extrapolated
 
 void main() {
     v_normal = in_normal;

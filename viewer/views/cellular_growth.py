@@ -26,8 +26,11 @@ SPHERE_EYE_DISTANCE, SPHERE_FOV = 50.0, 30.0
 """CellularGrowthSphere's perspective camera: at (0, 1, -50) looking along +z, field of view 30 degrees."""
 FIT_MARGIN = 1.1
 """F key and headless PNGs: the live cells' bounding box plus 10 %."""
-MIN_FIT_HALF = 2.0
-"""Smallest half-size the fit zooms in to, world units."""
+MIN_FIT_DISCS = 2.5
+"""The fit's half-size is at least this many times the largest live disc's half-width: a lone cell (the network's
+first seconds) spans 2/5 of the picture's height, clearly a cell, rather than a dot or the whole frame."""
+MIN_FIT_HALF = 0.05
+"""Smallest half-size the fit zooms in to, world units (cells of radius 0)."""
 EDGE_LENGTH = 2.0
 """Edges fade once |pa - pb| exceeds this many times ra + rb (book edge material: _Length)."""
 PAN_FRACTION = 0.1
@@ -52,9 +55,9 @@ class CellCamera(FlatCamera):
         dx, dy = fx * (y1 - y0), fy * (y1 - y0)
         self.rect = (x0 + dx, x1 + dx, y0 + dy, y1 + dy)
 
-    def fit(self, lower, upper) -> None:
+    def fit(self, lower, upper, min_half: float = MIN_FIT_HALF) -> None:
         center = (np.asarray(lower) + np.asarray(upper)) / 2
-        half = np.maximum((np.asarray(upper) - np.asarray(lower)) / 2 * FIT_MARGIN, MIN_FIT_HALF)
+        half = np.maximum((np.asarray(upper) - np.asarray(lower)) / 2 * FIT_MARGIN, min_half)
         self.rect = (center[0] - half[0], center[0] + half[0], center[1] - half[1], center[1] + half[1])
 
 
@@ -100,6 +103,7 @@ class View(BaseView):
         self.edge_vao = ctx.vertex_array(self.edge_program, [])
         self.buffers = {name: GrowableBuffer(ctx, min_bytes=32) for name in SSBO_BINDINGS}
         self.lower, self.upper = np.array([-1.0, -1.0]), np.array([1.0, 1.0])
+        self.largest_reach = 0.0
         self.camera = None
         self.alive = self.edge_count = 0
 
@@ -114,8 +118,12 @@ class View(BaseView):
             return book_camera()
         self.upload()
         camera = book_camera()
-        camera.fit(self.lower, self.upper)
+        camera.fit(self.lower, self.upper, self.min_fit_half())
         return camera
+
+    def min_fit_half(self) -> float:
+        """The fit's smallest half-size: MIN_FIT_DISCS largest discs' half-widths (MIN_FIT_HALF at least)."""
+        return max(MIN_FIT_DISCS * self.largest_reach, MIN_FIT_HALF)
 
     # }}}
 
@@ -134,6 +142,7 @@ class View(BaseView):
             reach = (parts["radius"][alive] * self._size())[:, None]
             self.lower = (parts["position"][alive] - reach).min(axis=0)
             self.upper = (parts["position"][alive] + reach).max(axis=0)
+            self.largest_reach = float(reach.max())
 
     def _size(self) -> float:
         return self.sim.params.size
@@ -228,9 +237,9 @@ class View(BaseView):
     def fit(self) -> None:
         self.upload()
         if isinstance(self.camera, CellCamera):
-            self.camera.fit(self.lower, self.upper)
+            self.camera.fit(self.lower, self.upper, self.min_fit_half())
         elif isinstance(self.camera, OrbitCamera):
-            fit_orbit(self.camera, self.lower, self.upper)
+            fit_orbit(self.camera, self.lower, self.upper, self.min_fit_half())
 
     def _pan(self, fx: float, fy: float) -> None:
         if isinstance(self.camera, CellCamera):
@@ -261,10 +270,10 @@ class ParticleView(View):
         return "discs"
 
 
-def fit_orbit(camera: OrbitCamera, lower, upper) -> None:
+def fit_orbit(camera: OrbitCamera, lower, upper, min_half: float = MIN_FIT_HALF) -> None:
     """Look at the middle of the box [lower, upper] (z = 0) from far enough to see all of it."""
     center = (np.asarray(lower) + np.asarray(upper)) / 2
-    half = max(float(np.max(np.asarray(upper) - np.asarray(lower))) / 2 * FIT_MARGIN, MIN_FIT_HALF)
+    half = max(float(np.max(np.asarray(upper) - np.asarray(lower))) / 2 * FIT_MARGIN, min_half)
     camera.target = (float(center[0]), float(center[1]), 0.0)
     camera.distance = half / np.tan(np.radians(camera.fov / 2))
 
@@ -282,5 +291,5 @@ class SphereView(View):
         camera = OrbitCamera(target=(0.0, 1.0, 0.0), distance=SPHERE_EYE_DISTANCE, fov=SPHERE_FOV, far=5000.0)
         if self.sim.params.camera == "fit":
             self.upload()
-            fit_orbit(camera, self.lower, self.upper)
+            fit_orbit(camera, self.lower, self.upper, self.min_fit_half())
         return camera

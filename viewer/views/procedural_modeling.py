@@ -25,6 +25,10 @@ FRAME_COLORS = {"tangent": (1.0, 0.0, 0.0, 1.0), "normal": (0.0, 1.0, 0.0, 1.0),
 """The overlay's frame arrows: T red, N green, B blue."""
 NO_CLIP = 2.0
 """grow_t of meshes that do not grow: above every uv.y."""
+TREE_FILL = 0.85
+"""The tree's PNG camera: the grown tree(s) reach this share of the picture's half-width or half-height."""
+TUBE_FILL = 0.94
+"""The tube's PNG camera: the row of copies reaches this share of the picture's half-width or half-height."""
 
 
 def translation(offset) -> np.ndarray:
@@ -313,6 +317,18 @@ class TubularView(MeshView):
     def make_camera(self):
         return camera_at((0.5, 2.0, -6.5), 15.0)  # Tubular.unity: (0, 2, -5) pitched 15, pulled back
 
+    def png_camera(self):
+        """The start camera's angle, as close as keeps every copy of the tube in the picture: the three copies
+        side by side make a wide, low row, which the window's camera shows small (the frame arrows, which reach
+        past a thin tube, count too)."""
+        camera = self.make_camera()
+        vertices = self.sim.mesh().vertices.astype(np.float64)
+        state = self.sim.state()
+        arrows = [state["curve_points"] + self.frame_scale * state[key] for key in ("frame_t", "frame_n", "frame_b")]
+        points = [vertices + offset for offset, _ in self.layout()] + [a + self.layout()[0][0] for a in arrows]
+        camera.fit(np.concatenate(points), TUBE_FILL)
+        return camera
+
     def upload(self) -> None:
         super().upload()
         if self._overlay_of is self.sim.mesh():
@@ -383,6 +399,17 @@ class TreeView(MeshView):
         side = int(np.ceil(np.sqrt(p.trees)))
         extent = max(side * p.spacing, 3.0 if p.material != "all" else 9.0)
         return OrbitCamera(target=(0.0, 2.0, 0.0), distance=1.1 * extent + 2.0, pitch=10.0 if side == 1 else 30.0)
+
+    def png_camera(self):
+        """The start camera's angle, aimed at the middle of the grown tree(s) (every copy of the layout) and as
+        close as keeps all of them in the picture: a tree leans its own way, and a forest is wider than tall."""
+        camera = self.make_camera()
+        vertices = self.sim.mesh().vertices.astype(np.float64)
+        points = np.concatenate([vertices + offset for offset, _ in self.layout()])
+        lower, upper = points.min(axis=0), points.max(axis=0)
+        camera.target = tuple(float(c) for c in (lower + upper) / 2)
+        camera.fit(points, TREE_FILL)
+        return camera
 
     def grow_t(self) -> float:
         return self.sim.grow_t
