@@ -45,8 +45,8 @@ $(STAMP): setup.cfg pyproject.toml
 
 venv: $(STAMP) ## create .venv/ and install ugpcl (editable) with its test tools
 
-run: $(STAMP) ## headless main job: 4096 boids, 600 steps -> out/boids.npz + out/boids.png
-	$(BIN)/ugpcl run boids --steps 600 --seed 0 --set max_object_num=4096 --out out/boids.npz --png out/boids.png
+run: $(STAMP) ## headless main job: the book's 16384 boids, 2100 steps (one flock) -> out/boids.npz + out/boids.png
+	$(BIN)/ugpcl run boids --steps 2100 --seed 0 --out out/boids.npz --png out/boids.png
 
 test: $(STAMP) ## the test suite on PoCL (CPU), on TEST_WORKERS processes (about 2.5 minutes on 2 cores)
 	$(BIN)/pytest -m "not oclgrind" -q -n $(TEST_WORKERS) --dist loadfile --durations=15

@@ -299,8 +299,8 @@ def test_cli_writes_the_spec_arrays(capsys, tmp_path):
 
 @pytest.mark.gl
 def test_view_draws_a_cube_per_revealed_state(runtime, gl):
-    sim = make(runtime, L=12, chains=40, samples=10)
-    sim.step(1.0)  # 10 chains per second: 11 chains shown after a second
+    sim = make(runtime, L=12, chains=40, samples=10, chains_per_second=10.0)
+    sim.step(1.0)  # the sample's 10 chains per second: 11 chains shown after a second
     pixels, primitives, view, camera = render_view(gl, "mcmc", sim, show_box=False)
     assert primitives == 12 * 11 * 10, "one cube (12 triangles) per emitted state of the revealed chains"
     mask = foreground(pixels, view.background)

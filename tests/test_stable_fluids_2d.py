@@ -476,7 +476,8 @@ def test_view_shows_the_line_stroke_as_dark_ink_on_white(runtime, gl):
     from ugpcl.viewer.views import create_view
 
     scene = get("stable_fluids_2d")
-    sim = scene.create(runtime, width=64, height=36, source_radius=RADIUS, stroke="line")  # book gains
+    book_gains = {"velocity_coef": 2.0, "density_coef": 2.0}  # the sample scene's, not the scene's SCENE_DEFAULTS
+    sim = scene.create(runtime, width=64, height=36, source_radius=RADIUS, stroke="line", **book_gains)
     for _ in range(120):
         sim.step()
     view = create_view(scene, gl, sim)

@@ -39,7 +39,7 @@ import pyopencl.cltypes as cltypes
 from ..buffers import PingPong, put
 from ..resources import Allocation
 from ..runtime import fitted_shape
-from ..scene import Animation, Scene, param
+from ..scene import Animation, PreviewCheck, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
 
@@ -101,9 +101,13 @@ class Params(BaseParams):
     """Kinematic viscosity nu; a_v = dt*visc*w*h (book: visc; the sample scene's 20, code default 0).
     Up to 1e6: a <= 1.7e13 keeps the Jacobi sums finite in float32."""
     velocity_coef: float = param(2.0, 0.0, 1e4, live=True, ignored_when={"density_only": True})
-    """Gain of the brush's velocity, per second (book: velocityCoef). Up to 1e4: the sources stay finite in float32."""
+    """Gain of the brush's velocity, per second (book: velocityCoef, the sample scene's 2; the scene stable_fluids_2d
+    blows 30x harder, SCENE_DEFAULTS: with 2 the flow barely moves the ink). Up to 1e4: the sources stay finite in
+    float32."""
     density_coef: float = param(2.0, 0.0, 1e4, live=True)
-    """Gain of the brush's density, per second (book: densityCoef). Up to 1e4: the sources stay finite in float32."""
+    """Gain of the brush's density, per second (book: densityCoef, the sample scene's 2; the scene stable_fluids_2d
+    paints 4x darker, SCENE_DEFAULTS: with 2 a moving brush leaves a faint grey trace). Up to 1e4: the sources stay
+    finite in float32."""
     density_only: bool = param(False, live=True)
     """Skip the velocity step; advect the density by the brush's velocity (book: isDensityOnly)."""
     gs_iterations: int = param(2, 1, 100000, live=True)
@@ -559,19 +563,32 @@ def kinetic_energy(velocity: np.ndarray) -> float:
     return float(0.5 * np.mean(np.sum(velocity.astype(np.float64) ** 2, axis=-1)))
 
 
-PREVIEW = {"steps": 200, "velocity_coef": 60.0, "density_coef": 8.0, "stroke_frames": 0}
+SCENE_DEFAULTS = {"velocity_coef": 60.0, "density_coef": 8.0}
+"""The scene's brush: 30x the sample scene's velocity gain and 4x its ink gain; the solver (diff, visc, sweeps,
+kernels) stays the book's. With the sample's gains (2, 2) the scripted stroke, a brush moving along as a hand drags
+the mouse (its velocity clamped to one cell per frame), leaves a faint grey ring (max density 0.035) that the flow
+barely moves (a back-trace of 0.27 cells per frame): a short run shows a pale smudge. With these, ten frames paint a
+dark stroke and the flow visibly stirs the ink. A hand that holds the mouse still paints dark ink with the book's
+gains too; ``--set velocity_coef=2 --set density_coef=2`` runs the sample scene's brush."""
+PREVIEW = {"steps": 200, "stroke_frames": 0}
 """docs/img/stable_fluids_2d.png: the circle stroke still painting after 200 frames (fresh dark ink curling over the
-older, diffused grey), with 30x the book's velocity gain and 4x its ink gain.
-With the book's gains (2, 2) a stroke moving one cell per frame leaves a faint grey ring (max density 0.035) that
-the flow barely moves (back-trace 0.27 cells per frame); a hand holding the mouse still paints darker ink."""
+older, diffused grey)."""
 
 SCENES = [
     Scene(
         STEM,
         Simulation,
         "Stable fluids in 2D: ink painted by a brush, black on white (vol.1 ch.4)",
+        SCENE_DEFAULTS,
         view="View",
         preview=PREVIEW,
+        # the brush paints one dab of radius 0.022 (the sample scene's) per frame, moving as a hand drags: what ten
+        # frames can cover whatever the gains
+        preview_check=PreviewCheck(
+            min_subject=0.005,
+            sparse="a brush stroke: ten frames of the book's brush (radius 0.022 of the screen, one dab a frame) paint "
+            "a dark stroke of 0.6 % of an 800x600 frame; the preview's ring covers 30 %",
+        ),
         animation=Animation("the scripted circle stroke stirs the ink round", every=2),
     )
 ]

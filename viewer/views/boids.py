@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import dataclasses
+import itertools
+
 import moderngl
+import numpy as np
 
 from ..camera import OrbitCamera
 from ..gl import GrowableBuffer, Lines, load_program, set_camera
@@ -12,6 +16,22 @@ from . import View as BaseView
 
 MIN_BOIDS, MAX_BOIDS = 256, 262144
 """Range of the [ and ] keys (halving/doubling N, multiples of 256)."""
+PICTURE_YAW, PICTURE_PITCH = -30.0, 15.0
+"""Where pictures look from: in front of the box, a little to the left and above."""
+CAGE_MARGIN = 0.98
+"""The cage is drawn in a close-up only where every corner projects within this share of the half-frame."""
+CLOSE_UP_FILL = 0.6
+"""Share of the half-frame the boids fill in a close-up (``OrbitCamera.fit``): room around a ball of boids, and a
+camera far enough that the near ones are not much larger than the far ones."""
+
+
+@dataclasses.dataclass
+class PictureCamera(OrbitCamera):
+    """The camera of pictures and videos (``View.png_camera``): the view frames it on the boids before every frame
+    (``View.frame``), so a video follows the book's start, a ball of radius 1, as it spreads into the 32^3 box."""
+
+    shows_cage: bool = True
+    """Whether the wall box fits in the frame (else the close-up leaves it out: its lines would cross the edge)."""
 
 
 class View(BaseView):
@@ -39,20 +59,48 @@ class View(BaseView):
         self.box = Lines(ctx, color=(0.0, 1.0, 1.0, 1.0))
         self.show_box, self.color_by_speed = True, False
         self.saved_weights: dict[str, float] = {}
+        self.positions = sim.boids()["position"][:, :3]  # what pictures frame (png_camera, frame)
 
     def make_camera(self):
-        """The first view: the whole 32^3 box from outside, as the pictures show it (``book_camera``: the book's)."""
-        return self.png_camera()
+        """The window's first view: the whole 32^3 box from outside (``book_camera``: the book's, inside the flock;
+        pictures frame the boids, ``png_camera``)."""
+        return OrbitCamera(target=(0.0, 0.0, 0.0), distance=62.0, yaw=PICTURE_YAW, pitch=PICTURE_PITCH)
 
     def book_camera(self):
         return OrbitCamera(target=(0.0, 0.0, 0.0), distance=10.0)  # book: camera at (0, 0, -10), FOV 60
 
     def png_camera(self):
-        # the book's camera sits inside the flock; a picture shows more from outside the 32^3 box
-        return OrbitCamera(target=(0.0, 0.0, 0.0), distance=62.0, yaw=-30.0, pitch=15.0)
+        """Pictures and videos: the boids framed from outside (``frame``); the book's camera sits inside the flock."""
+        camera = PictureCamera(yaw=PICTURE_YAW, pitch=PICTURE_PITCH)
+        self.positions = self.sim.boids()["position"][:, :3]  # the state now, uploaded or not
+        self.frame(camera)
+        return camera
+
+    def frame(self, camera: PictureCamera) -> None:
+        """Frame the whole wall box, or close in on the boids where they all fit nearer than that (the book's start:
+        N boids in a ball of radius 1, bursting out for the first seconds): every boid in the frame, the cage drawn
+        where its corners are in it too. Only the boids' positions decide, so a video refitted each frame is steady."""
+        p = self.sim.params
+        half = np.asarray(p.wall_size, float) / 2
+        corners = np.asarray(p.wall_center, float) + half * np.array(list(itertools.product((-1, 1), repeat=3)))
+        camera.target = tuple(map(float, p.wall_center))
+        camera.fit(corners)
+        centre = self.positions.mean(axis=0)
+        outward = self.positions - centre
+        outward /= np.maximum(np.linalg.norm(outward, axis=1, keepdims=True), 1e-6)
+        reach = 0.5 * float(np.linalg.norm(p.object_scale))  # a boid's mesh reaches this far from its centre
+        near = dataclasses.replace(camera, target=tuple(map(float, centre)))
+        near.fit(self.positions + reach * outward, CLOSE_UP_FILL)
+        if near.distance >= camera.distance:
+            camera.shows_cage = True
+            return
+        camera.target, camera.distance = near.target, near.distance
+        clip = camera.projection() @ camera.view() @ np.column_stack([corners, np.ones(8)]).T
+        camera.shows_cage = bool((clip[3] > 0).all() and (np.abs(clip[:2] / clip[3]) < CAGE_MARGIN).all())
 
     def upload(self) -> None:
         data = self.sim.boids()
+        self.positions = data["position"][:, :3]
         if self.instances.write(data):
             self.vao = self.ctx.vertex_array(
                 self.program,
@@ -67,13 +115,15 @@ class View(BaseView):
 
     def draw(self, camera) -> None:
         p = self.sim.params
+        if isinstance(camera, PictureCamera):  # a video's frames follow the boids
+            self.frame(camera)
         self.ctx.enable(moderngl.DEPTH_TEST)
         set_camera(self.program, camera)
         self.program["object_scale"].value = p.object_scale
         self.program["color_by_speed"].value = self.color_by_speed
         self.program["max_speed"].value = p.max_speed
         self.vao.render(moderngl.TRIANGLES, instances=self.sim.n)
-        if self.show_box:
+        if self.show_box and getattr(camera, "shows_cage", True):
             self.box.draw(camera)
 
     def status(self) -> list[str]:

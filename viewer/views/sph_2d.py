@@ -61,16 +61,17 @@ class View(BaseView):
         return FlatCamera(rect=self._rect())
 
     def png_camera(self):
-        """Pictures zoom onto the fluid where it fills less than half the box's width and height (the code
+        """Pictures zoom onto the fluid where that fits in three quarters of the box's width and height (the code
         defaults' disc of radius 0.1 in a 1 x 1 box covers 3 % of it): the particles' bounds down to the floor,
-        plus a margin of a fifth. The rect stays fixed for the camera's life (a video does not jump)."""
+        plus a margin of a fifth of the fluid's own size (a disc still in the air keeps the floor under it without
+        a margin as tall as its fall). The rect stays fixed for the camera's life (a video does not jump)."""
         x0, x1, y0, y1 = self._rect()
         position = self.sim.particles_array()["position"]
         (fx0, fy0), (fx1, fy1) = position.min(axis=0), position.max(axis=0)
-        fy0 = 0.0  # the floor the fluid lands on stays in view
         margin = 0.2 * max(fx1 - fx0, fy1 - fy0)
+        fy0 = 0.0  # the floor the fluid lands on stays in view
         fluid = (max(fx0 - margin, x0), min(fx1 + margin, x1), max(fy0 - margin, y0), min(fy1 + margin, y1))
-        small = fluid[1] - fluid[0] < 0.5 * (x1 - x0) and fluid[3] - fluid[2] < 0.5 * (y1 - y0)
+        small = fluid[1] - fluid[0] < 0.75 * (x1 - x0) and fluid[3] - fluid[2] < 0.75 * (y1 - y0)
         self.picture_rect = tuple(map(float, fluid)) if small else None
         return FlatCamera(rect=self.picture_rect or self._rect())
 
