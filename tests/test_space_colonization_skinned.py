@@ -1,16 +1,20 @@
 """Space colonization in a dancing figure (vol.4 ch.1 section 1.4; docs/chapters/12-space-colonization.md): the
-skinned records, SetupSkin, Seed, Attract and Animate against numpy, the figure's volume and poses, growth in bind
-space, the CLI, the view and Oclgrind. Search .. Grow are the sphere scene's host code (test_space_colonization.py)."""
+skinned records, SetupSkin, Seed, Attract and Animate against numpy, every kernel of a tiny hand-made run against a
+numpy reference of the chapter's step (with guard records past every count), the figure's volume and poses, growth
+in bind space, the CLI, the view and Oclgrind. The host's Search .. Grow calls are the sphere scene's
+(test_space_colonization.py)."""
 
 from __future__ import annotations
 
 import numpy as np
+import pyopencl.cltypes as cltypes
 import pytest
 from helpers import run_cli
 
-from ugpcl.buffers import device_sizeof
+from ugpcl.buffers import Pool, device_sizeof
 from ugpcl.geometry import skinned_figure
 from ugpcl.registry import get
+from ugpcl.scenes.space_colonization import EDGE_DTYPE, LOCAL_SIZE
 from ugpcl.scenes.space_colonization_skinned import (
     SKINNED_ATTRACTION_DTYPE,
     SKINNED_CANDIDATE_DTYPE,
@@ -18,6 +22,8 @@ from ugpcl.scenes.space_colonization_skinned import (
     Simulation,
 )
 
+MIN_DIRECTION = 1e-12
+"""Attract skips an attraction closer than this to its node (docs/chapters/12-space-colonization.md)."""
 SKINNED_TEST = {"resolution": 40}
 """A coarse figure volume (about 400 attractions) keeps these tests fast."""
 
@@ -95,6 +101,447 @@ def test_animate_matches_numpy_and_is_the_identity_at_rest(runtime):
     nodes = sim.read_nodes()
     np.testing.assert_allclose(nodes["animated"][live], nodes["position"][live], atol=1e-5)
     assert (nodes["index0"][live] >= 0).all() and (nodes["index0"][live] < 12).all()
+
+
+# }}}
+
+# {{{ a tiny run, kernel by kernel, against a numpy reference of the chapter's step
+
+# A hand-placed cloud: a jittered 4 x 3 grid, 1 apart, each point with its own bone. Seed 0 sits on attraction 0 (as
+# the book's seeds sit on attraction points), seed 1 on attraction 11. No two distances the kernels compare come
+# within 1e-4 of each other or of a threshold (Reference.margin), so float32 and float64 make the same choices.
+TINY_CLOUD = np.array(
+    [
+        [0.00, 0.00, 0.00],
+        [0.93, 0.12, 0.05],
+        [1.88, -0.07, 0.11],
+        [2.71, 0.21, -0.06],
+        [0.08, 1.04, 0.02],
+        [1.02, 0.97, -0.13],
+        [1.95, 1.11, 0.07],
+        [2.83, 0.89, 0.15],
+        [-0.11, 2.03, -0.04],
+        [0.97, 2.12, 0.09],
+        [2.06, 1.94, -0.10],
+        [2.90, 2.07, 0.03],
+    ],
+    np.float32,
+)
+TINY_BONES = np.array([3, 7, 1, 10, 5, 0, 8, 2, 11, 4, 9, 6], np.int32)
+TINY_SEEDS = TINY_CLOUD[[0, 11]]
+TINY_SLOTS = 24
+TINY_POP_ORDER = [5, 17, 0, 1, 23, 12, 2, 8, 3, 9, 4, 10, 6, 11, 7, 13, 14, 15, 16, 18, 19, 20, 21, 22]
+"""The node slots in the order the pool hands them out (its top first): not ascending, and slot 0 goes to Connect."""
+TINY = {"influence": 1.5, "growth": 0.45, "kill": 0.35, "mass": 0.5}
+"""Distances; mass_min = mass_max, so with TINY_DT a new node's t goes 0, 0.75, 1 (clamped): it branches in the third
+step after the one that made it."""
+TINY_DT = 1.5
+"""dT = dt * growth_speed of every step after the first, which is the book's Step(0) (Start: t stays 0)."""
+
+GUARD_ATTRACTION = np.array([((2.9, 2.07, 0.3), 2, 5, 1, 1)], SKINNED_ATTRACTION_DTYPE)[0]
+"""One record past attraction_count: live, found, pulling slot 5 (a seed's: TINY_POP_ORDER), within the kill distance
+of seed 1: Attract reading past the count changes that seed's candidates, SetupSkin, SetupAttractions or Remove
+going past it changes the record."""
+GUARD_NODE = np.array([((-0.11, 2.03, 0.2), (7.0, 7.0, 7.0), 4, 0.0, 0.0, 1.0, -1, 1)], SKINNED_NODE_DTYPE)[0]
+"""One record past slot_count: live, ungrown, within the kill distance of attraction 8 (which the tiny run never
+kills): Grow or Animate going past the count changes it, Remove reading past it kills attraction 8."""
+
+
+class Kernels:
+    """The skinned kernels on hand-made buffers, launched as the host launches them (GrowthSimulation's step); the
+    attraction and node buffers each hold one guard record past their count."""
+
+    def __init__(self, runtime, cloud, bones, slots: int, *, growth: float, mass: float, mass_max: float | None = None):
+        self.rt, self.program = runtime, runtime.program("space_colonization_skinned")
+        self.attraction_count, self.slots = len(cloud), slots
+        self.growth = growth
+        self.masses = np.float32(mass), np.float32(mass if mass_max is None else mass_max)  # mass_min, mass_max
+        attractions = np.zeros(len(cloud) + 1, SKINNED_ATTRACTION_DTYPE)
+        attractions[:-1]["position"], attractions[:-1]["bone"] = cloud, bones
+        attractions[:-1]["nearest"], attractions[:-1]["found"] = 7, 1  # stale flags of a used cloud, all dead
+        attractions[-1] = GUARD_ATTRACTION
+        nodes = np.zeros(slots + 1, SKINNED_NODE_DTYPE)
+        nodes[:-1]["active"] = 1  # stale: Setup frees every slot
+        nodes[-1] = GUARD_NODE
+        self.attractions, self.nodes = runtime.to_device(attractions), runtime.to_device(nodes)
+        self.node_pool = Pool(runtime, slots, np.int32, "node_pool")
+        self.candidates = Pool(runtime, slots, SKINNED_CANDIDATE_DTYPE, "candidates")
+        self.edges = Pool(runtime, 2 * slots, EDGE_DTYPE, "edges")
+        self.last_candidate = runtime.zeros(slots, cltypes.float4)
+
+    def run(self, name: str, n: int, *args) -> None:
+        self.program.kernel(name).over(n, LOCAL_SIZE, *args)
+
+    def heads(self) -> tuple:
+        return self.attractions.data, np.int32(self.attraction_count), self.nodes.data, np.int32(self.slots)
+
+    def setup_attractions(self) -> None:
+        self.run("SetupAttractions", self.attraction_count, self.attractions.data, np.int32(self.attraction_count))
+
+    def setup(self) -> None:
+        self.node_pool.set_count(0)
+        pool = self.node_pool
+        self.run("Setup", self.slots, self.nodes.data, np.int32(self.slots), pool.counter.data, pool.items.data)
+
+    def seed(self, seeds: np.ndarray) -> None:
+        buffer = self.rt.to_device(np.ascontiguousarray(seeds, np.float32).reshape(-1))
+        pool = self.node_pool
+        args = (buffer.data, np.int32(len(seeds)), *self.heads()[:2], self.nodes.data, pool.counter.data)
+        self.run("Seed", len(seeds), *args, pool.items.data, *self.masses)
+
+    def search(self, influence: float) -> None:
+        self.run("Search", self.attraction_count, *self.heads(), np.float32(influence))
+
+    def attract(self) -> None:
+        self.candidates.set_count(0)
+        tail = (np.float32(self.growth), np.int32(1), self.last_candidate.data)  # repeat_guard on (the default)
+        cand = (self.candidates.counter.data, self.candidates.items.data, np.int32(self.slots))
+        self.run("Attract", self.slots, *self.heads(), *tail, *cand)
+
+    def connect(self, count: int) -> None:
+        pool, cand, edges = self.node_pool, self.candidates, self.edges
+        args = (self.nodes.data, pool.counter.data, pool.items.data, cand.counter.data, cand.items.data)
+        edge_args = (edges.counter.data, edges.items.data, np.int32(edges.capacity))
+        self.run("Connect", count, *args, *edge_args, np.int32(count), *self.masses)
+
+    def remove(self, kill: float) -> None:
+        self.run("Remove", self.attraction_count, *self.heads(), np.float32(kill))
+
+    def setup_skin(self, vertices: np.ndarray, bones: np.ndarray) -> None:
+        vertices = self.rt.to_device(np.ascontiguousarray(vertices, np.float32).reshape(-1))
+        bones, count = self.rt.to_device(np.asarray(bones, np.int32)), np.int32(len(bones))
+        self.run("SetupSkin", self.attraction_count, *self.heads()[:2], vertices.data, bones.data, count)
+
+    def animate(self, bind_poses: np.ndarray, bone_matrices: np.ndarray, bone_count: int) -> None:
+        bind = self.rt.to_device(np.ascontiguousarray(bind_poses, np.float32).reshape(-1))
+        bone = self.rt.to_device(np.ascontiguousarray(bone_matrices, np.float32).reshape(-1))
+        self.run(
+            "Animate", self.slots, self.nodes.data, np.int32(self.slots), bind.data, bone.data, np.int32(bone_count)
+        )
+
+    def grow(self, dT: float) -> None:
+        self.run("Grow", self.slots, self.nodes.data, np.int32(self.slots), np.float32(dT))
+
+    def step(self, dT: float, influence: float, kill: float) -> None:
+        """The host's step: Search .. Remove while the pool has free slots, connecting min(free, candidates); Grow."""
+        free = self.node_pool.count()
+        if free:
+            self.search(influence)
+            self.attract()
+            self.connect(min(free, self.candidates.count()))
+            self.remove(kill)
+        self.grow(dT)
+
+    def read(self) -> tuple[np.ndarray, np.ndarray]:
+        """(attractions, nodes) without their guard records, checking that no kernel changed those."""
+        attractions, nodes = self.attractions.get(), self.nodes.get()
+        assert attractions[-1].tobytes() == GUARD_ATTRACTION.tobytes(), "a kernel wrote past attraction_count"
+        assert nodes[-1].tobytes() == GUARD_NODE.tobytes(), "a kernel wrote past slot_count"
+        return attractions[:-1], nodes[:-1]
+
+
+class Reference:
+    """The chapter's step in numpy float64 (the book's SkinnedSpaceColonization.compute, one bone per record; see
+    docs/chapters/12-space-colonization.md), written from the book, not from the kernels: Seed takes the bone of
+    the nearest attraction, Search the nearest live node within the influence distance (strict <), Attract the mean
+    of the unit vectors to the attractions that found the node (those closer than MIN_DIRECTION skipped) and the
+    bone of the nearest of them, with the repeat guard; Connect pops the last candidate and the top node slot,
+    Remove kills within the kill distance, Grow adds dT * mass. `margin` is the closest any compared distance came
+    to a tie or a threshold."""
+
+    def __init__(self, cloud, bones, seeds, pop_order, slots, *, influence, growth, kill, mass):
+        self.cloud, self.bones = np.asarray(cloud, float), np.asarray(bones)
+        self.influence, self.growth, self.kill, self.mass = influence, growth, kill, mass
+        a = len(self.cloud)
+        self.active, self.found, self.nearest = np.ones(a, bool), np.zeros(a, bool), np.full(a, -1)
+        self.position, self.from_ = np.zeros((slots, 3)), np.full(slots, -1)
+        self.t, self.offset, self.bone = np.zeros(slots), np.zeros(slots), np.full(slots, -1)
+        self.live = np.zeros(slots, bool)
+        self.last = {}  # node slot -> its last candidate
+        self.pool = list(pop_order)[::-1]  # pop() takes the top
+        self.edges: list[tuple[int, int]] = []
+        self.candidate_count = 0
+        self.margin = np.inf
+        for seed in np.asarray(seeds, float):
+            j = self.pool.pop()
+            d = np.linalg.norm(self.cloud - seed, axis=1)
+            self.note_ties(d)
+            self.position[j], self.t[j], self.bone[j], self.live[j] = seed, 1.0, self.bones[d.argmin()], True
+
+    def note_ties(self, d: np.ndarray, threshold: float | None = None) -> None:
+        d = np.sort(d)
+        if len(d) > 1:
+            self.margin = min(self.margin, d[1] - d[0])
+        if threshold is not None:
+            self.margin = min(self.margin, np.abs(d - threshold).min())
+
+    def step(self, dT: float) -> None:
+        if self.pool:
+            self.search()
+            candidates = self.attract()
+            self.connect(candidates)
+            self.remove()
+        self.t[self.live] = np.minimum(self.t[self.live] + dT * self.mass, 1.0)
+
+    def search(self) -> None:
+        live = np.flatnonzero(self.live)
+        for i in np.flatnonzero(self.active):
+            d = np.linalg.norm(self.position[live] - self.cloud[i], axis=1)
+            self.note_ties(d, self.influence)
+            self.found[i] = d.min() < self.influence
+            if self.found[i]:
+                self.nearest[i] = live[d.argmin()]
+
+    def attract(self) -> list[tuple[np.ndarray, int, int]]:
+        candidates = []
+        for n in np.flatnonzero(self.live & (self.t >= 1.0)):
+            pulling = np.flatnonzero(self.active & self.found & (self.nearest == n))
+            to = self.cloud[pulling] - self.position[n]
+            length = np.linalg.norm(to, axis=1)
+            keep = length >= MIN_DIRECTION
+            if not keep.any():
+                continue
+            self.note_ties(length[keep])
+            c = self.position[n] + (to[keep] / length[keep, None]).mean(axis=0) * self.growth
+            tolerance = 1e-3 * self.growth
+            if n in self.last and np.linalg.norm(c - self.last[n]) < tolerance:
+                continue
+            if np.linalg.norm(c - self.position[n]) < tolerance:
+                continue
+            self.last[n] = c
+            candidates.append((c, n, self.bones[pulling[keep][length[keep].argmin()]]))
+        self.candidate_count = len(candidates)
+        return candidates
+
+    def connect(self, candidates: list) -> None:
+        for _ in range(min(len(self.pool), len(candidates))):
+            c, parent, bone = candidates.pop()
+            j = self.pool.pop()
+            self.position[j], self.t[j], self.bone[j], self.from_[j], self.live[j] = c, 0.0, bone, parent, True
+            self.offset[j] = self.offset[parent] + 1
+            self.edges.append((parent, j))
+        self.candidate_count = len(candidates)
+
+    def remove(self) -> None:
+        live = np.flatnonzero(self.live)
+        for i in np.flatnonzero(self.active):
+            d = np.linalg.norm(self.position[live] - self.cloud[i], axis=1)
+            self.note_ties(d, self.kill)
+            self.active[i] = d.min() >= self.kill
+
+
+def node_key(position) -> tuple:
+    """A node named by its position: slots are handed out in atomic order, so two runs may swap equal-aged nodes."""
+    return tuple(np.round(np.asarray(position, float), 4))
+
+
+def assert_matches_reference(kernels: Kernels, ref: Reference, after: str) -> None:
+    """The device's records equal the reference's, node slots compared as sets and nodes by position."""
+    where = f"after {after}"
+    attractions, nodes = kernels.read()
+    live = nodes["active"] != 0
+    assert kernels.node_pool.count() == len(ref.pool), f"free slots {where}"
+    assert kernels.edges.count() == len(ref.edges), f"edges {where}"
+    assert kernels.candidates.count() == ref.candidate_count, f"candidates left {where}"
+    np.testing.assert_array_equal(np.flatnonzero(live), np.flatnonzero(ref.live), err_msg=f"live slots {where}")
+    np.testing.assert_array_equal(np.sort(kernels.node_pool.read()), np.sort(ref.pool), err_msg=f"pool {where}")
+    got = {node_key(n["position"]): n for n in nodes[live]}
+    want = {node_key(ref.position[j]): j for j in np.flatnonzero(ref.live)}
+    assert got.keys() == want.keys(), f"node positions {where}"
+    for key, j in want.items():
+        n = got[key]
+        np.testing.assert_allclose(n["position"], ref.position[j], atol=1e-5, err_msg=where)
+        np.testing.assert_array_equal(n["animated"], n["position"], err_msg=f"animated = position {where}")
+        parent = None if n["from"] < 0 else node_key(nodes["position"][n["from"]])
+        assert parent == (None if ref.from_[j] < 0 else node_key(ref.position[ref.from_[j]])), f"parent {where}"
+        got_fields = (n["index0"], n["t"], n["offset"], n["mass"])
+        assert got_fields == (ref.bone[j], ref.t[j], ref.offset[j], ref.mass), f"bone, t, offset, mass {where}"
+    np.testing.assert_array_equal(attractions["active"] != 0, ref.active, err_msg=f"attraction active {where}")
+    np.testing.assert_array_equal(attractions["found"] != 0, ref.found, err_msg=f"attraction found {where}")
+    np.testing.assert_array_equal(attractions["nearest"] < 0, ref.nearest < 0, err_msg=f"nearest -1 {where}")
+    named = ref.nearest >= 0
+    got_nearest = [node_key(p) for p in nodes["position"][attractions["nearest"][named]]]
+    assert got_nearest == [node_key(p) for p in ref.position[ref.nearest[named]]], f"nearest node {where}"
+    edges = kernels.edges.read()
+    np.testing.assert_array_equal(nodes["from"][edges["b"]], edges["a"], err_msg=f"edge = (from, node) {where}")
+    got_edges = sorted((node_key(nodes["position"][a]), node_key(nodes["position"][b])) for a, b in edges)
+    assert got_edges == sorted((node_key(ref.position[a]), node_key(ref.position[b])) for a, b in ref.edges), where
+
+
+def tiny_run(runtime) -> tuple[Kernels, Reference]:
+    """SetupAttractions, Setup, the pool put in TINY_POP_ORDER and Seed, and the reference at the same point."""
+    p = TINY
+    kernels = Kernels(runtime, TINY_CLOUD, TINY_BONES, TINY_SLOTS, growth=p["growth"], mass=p["mass"])
+    kernels.setup_attractions()
+    kernels.setup()
+    kernels.node_pool.fill(TINY_POP_ORDER[::-1])
+    kernels.seed(TINY_SEEDS)
+    ref = Reference(TINY_CLOUD, TINY_BONES, TINY_SEEDS, TINY_POP_ORDER, TINY_SLOTS, **p)
+    return kernels, ref
+
+
+def test_setup_skin_setup_and_setup_attractions_on_the_tiny_cloud(runtime):
+    """SetupSkin gives each attraction the bone of its nearest mesh vertex; Setup frees every node slot;
+    SetupAttractions revives the cloud and forgets its stale flags, keeping positions and bones."""
+    kernels = Kernels(runtime, TINY_CLOUD, TINY_BONES, TINY_SLOTS, growth=0.4, mass=0.5)
+    vertices = np.array([[0.5, 0.5, 0], [2.5, 0.5, 0], [0.5, 2, 0], [2.5, 2, 0], [1.5, 1.2, 0.5]], np.float32)
+    vertex_bones = np.array([9, 4, 7, 0, 11], np.int32)
+    kernels.setup_skin(vertices, vertex_bones)
+    kernels.setup_attractions()
+    kernels.setup()
+    attractions, nodes = kernels.read()
+    np.testing.assert_array_equal(attractions["position"], TINY_CLOUD)
+    d = np.linalg.norm(TINY_CLOUD[:, None].astype(float) - vertices[None], axis=2)
+    assert len(set(vertex_bones[d.argmin(axis=1)])) == 5, "every vertex should be some attraction's nearest"
+    np.testing.assert_array_equal(attractions["bone"], vertex_bones[d.argmin(axis=1)])
+    assert (attractions["active"] == 1).all() and (attractions["found"] == 0).all()
+    assert (attractions["nearest"] == -1).all(), "a stale nearest survived SetupAttractions"
+    assert (nodes["active"] == 0).all()
+    assert kernels.node_pool.count() == TINY_SLOTS
+    np.testing.assert_array_equal(np.sort(kernels.node_pool.read()), np.arange(TINY_SLOTS))
+
+
+def test_tiny_run_matches_the_reference_step_by_step(runtime):
+    """Seed, the book's Step(0), then eleven steps of Search, Attract, Connect, Remove and Grow on 12 attractions:
+    nodes (positions, parents, bones, t, offset, mass, animated), attractions (active, found, nearest), pool,
+    candidate and edge counts after every step, and nothing read or written past the counts (the guard records)."""
+    p = TINY
+    kernels, ref = tiny_run(runtime)
+    assert_matches_reference(kernels, ref, "Seed")  # the seed on attraction 0 takes its bone
+    for step in range(12):
+        dT = TINY_DT if step else 0.0
+        kernels.step(dT, p["influence"], p["kill"])
+        ref.step(dT)
+        assert_matches_reference(kernels, ref, f"step {step}")
+    assert ref.margin > 1e-4, "the tiny cloud has a near-tie: float32 may choose otherwise"
+    assert len(ref.edges) >= 15 and ref.from_[0] >= 0, "slot 0 must be handed out by Connect"
+    assert (~ref.active).sum() >= 6 and ref.active[8], "the run must kill some attractions, not attraction 8"
+    # invariants of the tree
+    _, nodes = kernels.read()
+    live = np.flatnonzero(nodes["active"] != 0)
+    children = live[nodes["from"][live] >= 0]
+    parents = nodes["from"][children]
+    assert (nodes["active"][parents] != 0).all()
+    length = np.linalg.norm(nodes["position"][children] - nodes["position"][parents], axis=1)
+    assert (length <= p["growth"] * (1 + 1e-5)).all() and (length > 0).all()
+    np.testing.assert_array_equal(nodes["offset"][children], nodes["offset"][parents] + 1)
+    assert np.isin(nodes["index0"][live], TINY_BONES).all()
+
+
+def test_seed_mass_is_the_mix_of_the_mass_range_by_nrand_of_the_seed_index(runtime):
+    """Seed i: mass = mix(mass_min, mass_max, nrand((i, 0))); nrand((0, 0)) = frac(sin(0) * k) = 0 exactly, so seed 0
+    has mass_min (the others' nrand depends on the device's sin: only their range is checked)."""
+    kernels = Kernels(runtime, TINY_CLOUD, TINY_BONES, 8, growth=0.4, mass=0.25, mass_max=1.0)
+    kernels.setup()
+    seeds = TINY_CLOUD[[0, 3, 6, 9]]
+    kernels.seed(seeds)
+    _, nodes = kernels.read()
+    live = nodes[nodes["active"] != 0]
+    assert len(live) == 4
+    by_seed = [live["mass"][(live["position"] == seed).all(axis=1)][0] for seed in seeds]
+    assert by_seed[0] == np.float32(0.25)
+    assert all(0.25 <= m <= 1.0 for m in by_seed) and len(set(by_seed)) == 4
+
+
+def test_animate_skins_live_nodes_with_a_known_bone_only(runtime):
+    """animated = (bone matrix . bind pose) . (position, 1) for a live node whose bone is in [0, bone_count); dead
+    nodes, bone -1 and bone == bone_count keep theirs (the matrix buffers hold one more bone than bone_count)."""
+    kernels = Kernels(runtime, TINY_CLOUD, TINY_BONES, 5, growth=0.4, mass=0.5)
+    rng = np.random.default_rng(3)
+    bind = np.tile(np.identity(4), (4, 1, 1))
+    bind[:, :3, 3] = rng.uniform(-1, 1, (4, 3))
+    pose = np.tile(np.identity(4), (4, 1, 1))
+    for b, angle in enumerate(rng.uniform(0, np.pi, 4)):
+        c, s = np.cos(angle), np.sin(angle)
+        pose[b, :3, :3] = [[c, -s, 0], [s, c, 0], [0, 0, 1]]
+    pose[:, :3, 3] = rng.uniform(-1, 1, (4, 3))
+    nodes = np.zeros(6, SKINNED_NODE_DTYPE)
+    nodes["position"] = rng.uniform(-1, 1, (6, 3))
+    nodes["animated"] = 7.0
+    nodes["index0"], nodes["active"] = [0, 2, 3, 1, -1, 0], [1, 1, 1, 0, 1, 0]  # live, live, bone_count, dead, -1
+    nodes[-1] = GUARD_NODE
+    kernels.nodes.set(nodes)
+    kernels.animate(bind, pose, 3)  # bone 3 of the buffers is past bone_count
+    _, got = kernels.read()
+    want = np.full((5, 3), 7.0)
+    for i in (0, 1):
+        want[i] = (pose[nodes["index0"][i]] @ bind[nodes["index0"][i]] @ [*nodes["position"][i], 1.0])[:3]
+    np.testing.assert_allclose(got["animated"], want, atol=1e-5)
+
+
+def test_attract_skips_only_attractions_closer_than_min_direction(runtime):
+    """An attraction exactly MIN_DIRECTION (1e-12) from its node still pulls it one growth distance; one on the node
+    gives no direction and no candidate."""
+    tiny = np.float32(MIN_DIRECTION)
+    probe = runtime.program_from_source(
+        "__kernel void probe(__global float* out) { out[0] = length((float3)(1e-12f, 0.0f, 0.0f)); }", "probe.cl"
+    )
+    out = runtime.zeros(1, np.float32)
+    probe.kernel("probe")(1, 1, out)
+    if out.get()[0] != tiny:
+        pytest.skip("this device's length() is not exact at 1e-12: the boundary cannot be placed")
+    cloud = np.array([[tiny, 0, 0], [0, 1, 0]], np.float32)
+    kernels = Kernels(runtime, cloud, [4, 6], 4, growth=0.5, mass=1.0)
+    nodes = np.zeros(5, SKINNED_NODE_DTYPE)
+    nodes[[1, 2]] = [((0, 0, 0), (0, 0, 0), 1, 1.0, 0.0, 1.0, -1, 1), ((0, 1, 0), (0, 1, 0), 2, 1.0, 0.0, 1.0, -1, 1)]
+    nodes[-1] = GUARD_NODE
+    kernels.nodes.set(nodes)
+    kernels.setup_attractions()
+    kernels.search(2.0)
+    attractions, _ = kernels.read()
+    np.testing.assert_array_equal(attractions["nearest"], [1, 2])
+    kernels.attract()
+    candidates = kernels.candidates.read()
+    assert len(candidates) == 1, "the attraction at MIN_DIRECTION must pull, the one on its node must not"
+    assert (candidates[0]["node"], candidates[0]["bone"]) == (1, 4)
+    np.testing.assert_array_equal(candidates[0]["position"], [0.5, 0, 0])
+
+
+def test_repeat_guard_reads_the_nodes_own_last_candidate(runtime):
+    """With the repeat guard, a node does not emit the candidate it emitted last time, nor one on itself (two
+    opposite attractions); the other nodes' last candidates do not matter."""
+    cloud = np.array([[1, 0.5, 0], [2, 1.5, 0], [3.5, 3, 0], [2.5, 3, 0], [5, 3, 0]], np.float32)
+    kernels = Kernels(runtime, cloud, [1, 2, 3, 4, 5], 4, growth=0.5, mass=1.0)
+    nodes = np.zeros(5, SKINNED_NODE_DTYPE)
+    for slot, position in ((1, (1, 0, 0)), (2, (2, 1, 0)), (3, (3, 3, 0))):
+        nodes[slot] = (position, position, 0, 1.0, 0.0, 1.0, -1, 1)
+    nodes[-1] = GUARD_NODE
+    kernels.nodes.set(nodes)
+    kernels.setup_attractions()
+    kernels.search(1.0)  # attraction 4 is too far: attractions 2 and 3 pull node 3 in opposite directions
+    attractions, _ = kernels.read()
+    np.testing.assert_array_equal(attractions["nearest"], [1, 2, 3, 3, -1])
+    kernels.attract()
+    first = np.sort(kernels.candidates.read(), order="node")
+    np.testing.assert_array_equal(first["node"], [1, 2])  # node 3's candidate would sit on it
+    np.testing.assert_array_equal(first["bone"], [1, 2])
+    np.testing.assert_allclose(first["position"], [[1, 0.5, 0], [2, 1.5, 0]], atol=1e-6)
+    last = kernels.last_candidate.get()
+    np.testing.assert_allclose(
+        [tuple(last[i]) for i in range(4)], [(0, 0, 0, 0), (1, 0.5, 0, 1), (2, 1.5, 0, 1), (0, 0, 0, 0)], atol=1e-6
+    )
+    kernels.attract()  # nothing changed: every node would repeat itself
+    assert kernels.candidates.count() == 0, "a node emitted the candidate it emitted last time"
+
+
+def test_seed_and_connect_make_nothing_once_the_pool_is_empty(runtime):
+    """pool_consume's empty branch (the host never dispatches more consumers than free slots): a Seed or Connect
+    work-item that finds the node pool empty writes no node and no edge, and the pool count stays 0."""
+    kernels = Kernels(runtime, TINY_CLOUD, TINY_BONES, 4, growth=0.4, mass=0.5)
+    kernels.setup_attractions()
+    kernels.setup()
+    kernels.node_pool.fill([2])
+    kernels.seed(TINY_SEEDS[[0, 1, 0]])  # three seeds, one free slot
+    _, nodes = kernels.read()
+    np.testing.assert_array_equal(nodes["active"], [0, 0, 1, 0])
+    assert kernels.node_pool.count() == 0
+    kernels.search(1.3)
+    kernels.attract()
+    assert kernels.candidates.count() == 1
+    kernels.connect(1)  # one candidate, no slot
+    _, nodes = kernels.read()
+    np.testing.assert_array_equal(nodes["active"], [0, 0, 1, 0])
+    assert kernels.node_pool.count() == 0 and kernels.edges.count() == 0
 
 
 # }}}
