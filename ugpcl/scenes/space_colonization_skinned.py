@@ -24,7 +24,7 @@ import numpy as np
 
 from ..geometry import skinned_figure
 from ..scene import ParamError, PreviewCheck, Scene, param
-from .space_colonization import LOCAL_SIZE, GrowthParams, GrowthSimulation
+from .space_colonization import LOCAL_SIZE, SHORT_RUN_PACE, GrowthParams, GrowthSimulation
 
 # {{{ records (clkernels/include/space_colonization.h)
 
@@ -203,7 +203,14 @@ SCENES = [
         "Space colonization inside a dancing figure: nodes skinned by their bone (vol.4 ch.1 section 1.4)",
         # the SkinnedAnimation scene's distances; the tube radius is the book's _Thickness 0.01 on its 3.4-unit
         # character, scaled to this 1.8-unit figure
-        defaults={"influence_distance": 1.91, "growth_distance": 0.573, "kill_distance": 0.398, "tube_radius": 0.0053},
+        # at the book's pace (one Step a frame) 10 steps show a few twigs: SHORT_RUN_PACE grows the figure in them
+        defaults={
+            "influence_distance": 1.91,
+            "growth_distance": 0.573,
+            "kill_distance": 0.398,
+            "tube_radius": 0.0053,
+            **SHORT_RUN_PACE,
+        },
         preview={"steps": 300},
         interactive={"resolution": 80},
         preview_check=PreviewCheck(fills_frame="the floor runs to the horizon"),
