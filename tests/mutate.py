@@ -41,6 +41,9 @@ TESTS = {
     "space_colonization": ["tests/test_space_colonization.py"],
     "probes": ["tests/test_benchmark.py::test_probes_compute_what_they_claim"],
 }
+# A chapter without a kernel file of its own: the file its scene runs, mutated against the chapter's own tests
+# (tessellation steps the 2D fluid; its tessellation shaders are GLSL, which this tool does not mutate).
+BORROWED = {"tessellation": "stable_fluids_2d"}
 PYTEST_ARGS = ["-x", "-q", "-p", "no:cacheprovider", "-m", "not oclgrind"]
 POISON = "ugpcl-mutate-poison"
 
@@ -335,11 +338,12 @@ def line_of(r: Result, stem: str) -> str:
 
 
 def mutate_chapter(stem: str, snapshot: Path, args) -> dict:
+    chapter, stem = stem, BORROWED.get(stem, stem)
     text = (snapshot / f"{stem}.cl").read_text()
-    tests = chapter_tests(stem)
+    tests = chapter_tests(chapter)
     order = drawn(text, args.seed)
-    report = {"chapter": stem, "file": f"clkernels/{stem}.cl", "tests": tests, "candidates": len(order)}
-    print(f"{stem}.cl: {len(order)} candidate sites, tests: {' '.join(tests)}", flush=True)
+    report = {"chapter": chapter, "file": f"clkernels/{stem}.cl", "tests": tests, "candidates": len(order)}
+    print(f"{chapter}: {stem}.cl, {len(order)} candidate sites, tests: {' '.join(tests)}", flush=True)
     threads = args.threads or (max(1, (os.cpu_count() or 1) // args.jobs) if args.jobs > 1 else 0)
 
     def run(source: str, oclgrind: bool = False) -> tuple[str, float, str]:
@@ -409,7 +413,7 @@ def mutate_chapter(stem: str, snapshot: Path, args) -> dict:
     )
     rate = f"{100 * killed / total:.0f}%" if total else "-"
     print(
-        f"{stem}: killed {killed}/{total} ({rate}; {count['timeout']} of them by timeout), survived "
+        f"{chapter}: killed {killed}/{total} ({rate}; {count['timeout']} of them by timeout), survived "
         f"{count['survived']}, stillborn {count['stillborn']} (redrawn), errors {count['error']}"
         + (f"; only {total} of {args.mutants} built" if total < args.mutants else ""),
         flush=True,
@@ -422,7 +426,7 @@ def mutate_chapter(stem: str, snapshot: Path, args) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    stems = sorted(p.stem for p in KERNELS.glob("*.cl"))
+    stems = sorted([p.stem for p in KERNELS.glob("*.cl")] + list(BORROWED))
     parser.add_argument(
         "--chapter",
         default="boids",
@@ -451,9 +455,10 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"no kernel file {', '.join(unknown)}.cl" if unknown else "--mutants and --jobs must be >= 1")
 
     if args.list:
-        for stem in chosen:
+        for chapter in chosen:
+            stem = BORROWED.get(chapter, chapter)
             order = drawn((KERNELS / f"{stem}.cl").read_text(), args.seed)
-            print(f"{stem}.cl: {len(order)} candidate sites; the first {args.mutants} of the draw (seed {args.seed}):")
+            print(f"{chapter}: {stem}.cl, {len(order)} candidate sites; the first {args.mutants} (seed {args.seed}):")
             for index, m in enumerate(order[: args.mutants]):
                 print(f"  #{index:<3} {stem}.cl:{m.line:<4} {m.kind:<9} {m.before_text} -> {m.after_text}")
         return 0
