@@ -6,14 +6,16 @@ from __future__ import annotations
 import importlib
 
 import numpy as np
+import pyopencl as cl
 import pytest
 
 from ugpcl.bench.device import DeviceLimits, copy_rate, fp32_rate, with_shares
 
 
-def fma_probe_reference(n: int, rounds: int, a: float, b: float) -> np.ndarray:
-    """FmaProbe in float64: 8 chains x = a x + b per lane, rounds x 16 times, then summed."""
-    i = np.arange(n, dtype=np.float64)[:, None]
+def fma_probe_reference(n: int, rounds: int, a: float, b: float, first: int = 0) -> np.ndarray:
+    """FmaProbe in float64 for global ids first .. first + n - 1: 8 chains x = a x + b per lane, rounds x 16 times,
+    then summed."""
+    i = np.arange(first, first + n, dtype=np.float64)[:, None]
     x0 = np.float32(1e-9) * (i + np.arange(4))
     chains = [x0 + c for c in (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7)]
     steps = rounds * 16
@@ -37,6 +39,14 @@ def test_probes_compute_what_they_claim(runtime):
     launch, fma = run_probes(runtime)
     np.testing.assert_allclose(launch, np.arange(64) * 2.0 + 1.0 + 0.5)
     np.testing.assert_allclose(fma, fma_probe_reference(64, 2, 0.999, 1e-3), rtol=1e-5)
+    # FmaProbe seeds its chains with x0 = (i, i + 1, i + 2, i + 3) * 1e-9: below float32's step of the result at
+    # ids < 64, but ~1e-3 (0.3 % of the result) at ids past 2^20, reached with a global offset
+    offset, n = 2**20, 64
+    out = runtime.zeros(offset + n, np.float32)
+    kernel = cl.Kernel(runtime.program("probes").program, "FmaProbe")  # its own: Kernel caches what it last set
+    kernel.set_args(out.data, np.int32(1), np.float32(0.999), np.float32(1e-3))
+    cl.enqueue_nd_range_kernel(runtime.queue, kernel, (n,), None, global_work_offset=(offset,))
+    np.testing.assert_allclose(out.get()[offset:], fma_probe_reference(n, 1, 0.999, 1e-3, first=offset), rtol=1e-5)
 
 
 def test_measured_limits_are_positive_and_shares_follow_their_columns(runtime):

@@ -447,3 +447,65 @@ def test_random_outlines_on_a_small_grid(size):
         result = ec.triangulate(rings)
         assert result.complete.all(), k
         check(f"grid {size} outline {k}", rings, result.vertices[result.triangles], None, None, rng)
+
+
+def host_clip(polygon: np.ndarray) -> tuple[np.ndarray, bool]:
+    """The host's robust EarClipper on one polygon until its ear list runs dry (no last-resort stage: the kernels
+    have none): (triangles (T, 3) local indices in clipping order, whether it finished)."""
+    clipper = ec.EarClipper(polygon, robust=True)
+    clipper.initialize_vertices()
+    found = []
+    while (triangle := clipper.clip()) is not None:
+        found.append(triangle)
+    return np.asarray(found, np.int64).reshape(-1, 3), clipper.finished
+
+
+def spiky_rings(seed: int, count: int, size: int = 6) -> list[np.ndarray]:
+    """Clockwise star-shaped rings on a small integer grid with 1 to 3 of what the robust filter drops inserted:
+    out-and-back spikes (v, v + d, v), overshoots past the next vertex along its edge, repeated points. Flat
+    vertices that only turn flat once another is unlinked, in either index order, are common."""
+    rng = np.random.default_rng(seed)
+    found = []
+    while len(found) < count:
+        pts = rng.integers(0, size + 1, (int(rng.integers(3, 8)), 2)).astype(float)
+        centre = pts.mean(axis=0) + 0.01
+        pts = pts[np.argsort(-np.arctan2(*(pts - centre).T[::-1]), kind="stable")]  # clockwise about the centre
+        if len(np.unique(pts, axis=0)) < 3:
+            continue
+        ring = list(pts)
+        for _ in range(int(rng.integers(1, 4))):
+            i = int(rng.integers(len(ring)))
+            v, w = ring[i], ring[(i + 1) % len(ring)]
+            kind = int(rng.integers(3))
+            if kind == 0:
+                d = rng.integers(-2, 3, 2).astype(float)
+                if d.any():
+                    ring[i + 1 : i + 1] = [v + d, v.copy()]
+            elif kind == 1:
+                ring[i + 1 : i + 1] = [w + (w - v) * int(rng.integers(1, 3)) / 2]
+            else:
+                ring[i + 1 : i + 1] = [v.copy()]
+        found.append(np.asarray(ring))
+    return found
+
+
+def test_both_kernels_clip_as_the_host_on_grid_outlines_and_spikes(runtime):
+    """The robust EarClipping and EarClippingLarge give the host's robust clipper's triangles in its order, and
+    finish where it does (ear_clipping.cl: float64 without contraction, every sign the host's), on merged polygons
+    of random grid outlines (bridges, touching holes, aligned vertices) and on rings with spikes and repeated
+    points (the flat-vertex passes before clipping and the drops after each ear)."""
+    from ugpcl.geometry.ear_clipping_prepass import prepare
+
+    polygons = [
+        p for size in (6, 10) for rings in random_grid_outlines(size + 1, 40, size) for p in prepare(rings).polygons
+    ]
+    polygons += spiky_rings(0, 150)
+    triangles, counts, finished = ear_clip_batch(runtime, polygons)
+    offsets = np.concatenate([[0], np.cumsum([len(p) for p in polygons])])
+    for i, polygon in enumerate(polygons):
+        expected, done = host_clip(polygon)
+        start = offsets[i] - 2 * i
+        rows = triangles[start : start + counts[i]] - offsets[i]
+        assert np.array_equal(rows, expected) and finished[i] == done, f"polygon {i} (batch): {polygon.tolist()}"
+        large, covered = ear_clip_large(runtime, polygon)
+        assert np.array_equal(large, expected) and covered == done, f"polygon {i} (large): {polygon.tolist()}"

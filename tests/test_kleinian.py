@@ -253,6 +253,18 @@ def test_adaptive_changes_only_nonuniform_pixels(runtime):
     assert (adaptive["rgba"] != full["rgba"]).any(axis=-1).mean() < 0.05
 
 
+def test_adaptive_centre_pass_of_mode_2_classifies_the_inverted_point(runtime):
+    """frag_circle_inverse's centre sample inverts the pixel in the circle before josKleinian, in the adaptive
+    centre pass too: mode 0's uninverted centres would mark about half of these pixels wrongly."""
+    p = {"circle": (0.0, 0.0), "circle_w": 1.0, "scale": 4.0}  # about half the pixels change class by the inversion
+    sim = simulation(runtime, width=80, height=45, mode=2, samples=2, adaptive=True, **p)
+    centre = sim.render_kleinian()["centre_hit"].astype(bool)
+    x, y = pixel_points_np(80, 45, 4.0, (0.0, 0.0), mode=2)
+    d = x * x + y * y
+    expected, _ = sim.classify_points(np.stack([x / d, y / d], axis=-1).reshape(-1, 2), 2.0, 0.0)
+    assert (centre != expected.reshape(centre.shape).astype(bool)).mean() <= 0.005
+
+
 # }}}
 
 # {{{ animation (KleinianGroup.cs curves, KleinianGroupCircleInverse.anim)

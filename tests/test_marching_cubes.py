@@ -186,10 +186,12 @@ def topology(faces: np.ndarray, n_vertices: int) -> dict:
 
 def make(runtime, n: int = 32, cpu_kernels: bool | None = None, **overrides) -> Simulation:
     """A scene on ``runtime``; ``cpu_kernels`` True/False remeshes with the *_cpu or the one-cell kernels (None: the
-    device's own choice)."""
+    device's own choice). A switch fills the field with NaN first: the other kernels' field must not stand in for
+    one that the chosen SampleField leaves unwritten."""
     sim = Simulation(runtime, Params(segment_num=n, **overrides))
     if cpu_kernels is not None and cpu_kernels != sim.cpu_kernels:
         sim.cpu_kernels = cpu_kernels
+        sim.field.fill(np.float32(np.nan))
         sim.remesh()
     return sim
 

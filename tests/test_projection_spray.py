@@ -149,6 +149,28 @@ def test_fully_lit_texel_reaches_one_minus_0985_to_the_60(runtime):
     assert abs((paint[..., 0] > 0).mean() - 0.122) <= 0.015
 
 
+def test_paint_rate_is_colour_alpha_times_emission(runtime):
+    """a_frame = a * color.a * dt * emission: alpha 0.5 and emission 3 paint the fully lit texel 1.5 times as fast."""
+    sim = make(runtime, preset="stencil", tex=65, depth_res=65, color=(1.0, 0.0, 0.0, 0.5), emission=3.0)
+    sim.set_drawables([quad(4.0, PRESETS["stencil"].spray_position[2] + 3.0)])
+    sim.step(1.0 / 60.0)
+    np.testing.assert_allclose(sim.state()["paint"][0, 32, 32, :3], [0.0225, 0.0, 0.0], atol=1e-6)  # 0.9 * 1.5 / 60
+
+
+def test_nothing_nearer_than_the_near_plane_is_painted(runtime):
+    """The spray camera's near clip is 0.01: a 2 mm quad 5 mm in front of the spray lies inside the cone but before
+    the frustum and takes no paint; 2 cm in front, it is painted all over."""
+    z = PRESETS["stencil"].spray_position[2]
+    for distance, painted in ((0.005, False), (0.02, True)):
+        sim = make(runtime, preset="stencil", tex=16, depth_res=16, skip_tiles=False)
+        sim.set_drawables([quad(0.002, z + distance)])
+        sim.step(1.0 / 60.0)
+        state = sim.state()
+        red = state["paint"][0][state["pos_tex"][0][..., 3] >= 0.5][:, 0]
+        assert len(red) == 16 * 16  # the quad covers its whole texture
+        assert (red > 0.01).all() if painted else not red.any(), (distance, red.min(), red.max())
+
+
 def test_incidence_range_and_facing(runtime):
     z = PRESETS["stencil"].spray_position[2] + 3.0
     tilted = quad(4.0, 0.0)
@@ -392,6 +414,20 @@ def test_depth_map_matches_exact_ray_casting(runtime):
     close = np.abs(depth - exact) <= 1e-4 * exact
     assert close.mean() >= 0.995, f"{(~close).sum()} of {d * d} depth pixels differ"
     assert depth.min() > 0 and depth.max() <= sim.params.spray_range
+
+
+def test_depth_map_of_a_wall_filling_the_frustum_is_exact_to_its_edges(runtime):
+    """A 4 x 4 quad 3 units ahead fills the spray's view: every pixel, the last row and column too, holds the
+    distance 3 |forward + sx right + sy up| to the plane."""
+    d = 31
+    sim = make(runtime, preset="stencil", tex=16, depth_res=d, skip_tiles=False)
+    sim.set_drawables([quad(4.0, PRESETS["stencil"].spray_position[2] + 3.0)])
+    sim.step()
+    half = np.tan(np.radians(sim.params.spray_angle) / 2)
+    j, i = np.mgrid[0:d, 0:d]
+    exact = 3.0 * np.sqrt(1 + ((2 * (i + 0.5) / d - 1) * half) ** 2 + ((2 * (j + 0.5) / d - 1) * half) ** 2)
+    depth = sim.depth_map()
+    assert np.allclose(depth, exact, rtol=1e-5), first_mismatch(depth.ravel(), exact.ravel(), 1e-5, 0)
 
 
 # }}}

@@ -13,7 +13,7 @@ from scipy import ndimage
 
 from ugpcl.bench.star_glow import streak_line_kernel
 from ugpcl.registry import get
-from ugpcl.scenes.star_glow import COMPOSITE_TYPES, Params, Simulation
+from ugpcl.scenes.star_glow import COMPOSITE_TYPES, Params, Simulation, demo_spheres
 
 # {{{ numpy float64 reference, written from the book's StarGlow.shader passes and StarGlow.cs
 
@@ -289,6 +289,57 @@ def test_each_tap_is_saturated_after_its_weight(runtime, tmp_path):
     sim.star_glow()
     streak = sim.images()["streaks"][0]  # dir (1, 0): the streak runs to -x
     np.testing.assert_allclose(streak[8, 8 - np.arange(4), 0], [1.0, 1.0, 0.98, 0.686], atol=1e-6)
+
+
+def demo_ref(W: int, H: int, spheres: np.ndarray, albedo: np.ndarray) -> np.ndarray:
+    """The demo frame (H, W, 4) in float64: the Sample's camera (at (0, 0, -2) looking along +z, vertical FOV 30
+    degrees) casting a ray through every pixel centre; the nearest sphere is lit by the Sample's directional light
+    (colour (1, 0.957, 0.839) x 0.87, Euler (50, -30, 0): towards the light is (cos 50 sin 30, sin 50,
+    -cos 50 cos 30)) with an ambient 0.06, Lambert and Blinn-Phong (specular 3, shininess 64); black elsewhere."""
+    u, v = centres(W, H)
+    t = math.tan(math.radians(15.0))
+    ray = np.stack([(2 * u - 1) * t * W / H, (2 * v - 1) * t, np.ones_like(u)], axis=-1)
+    ray /= np.linalg.norm(ray, axis=-1, keepdims=True)
+    eye = np.array([0.0, 0.0, -2.0])
+    nearest, hit = np.full(u.shape, np.inf), np.full(u.shape, -1)
+    for i, sphere in enumerate(spheres.astype(np.float64)):
+        oc = eye - sphere[:3]
+        b = ray @ oc
+        disc = b * b - (oc @ oc - sphere[3] ** 2)
+        with np.errstate(invalid="ignore"):
+            dist = -b - np.sqrt(disc)
+        closer = (disc >= 0) & (dist > 0) & (dist < nearest)
+        nearest, hit = np.where(closer, dist, nearest), np.where(closer, i, hit)
+    a50, a30 = math.radians(50.0), math.radians(30.0)
+    light = np.array([math.cos(a50) * math.sin(a30), math.sin(a50), -math.cos(a50) * math.cos(a30)])
+    colour = 0.87 * np.array([1.0, 0.957, 0.839])
+    n = eye + np.where(np.isfinite(nearest), nearest, 0.0)[..., None] * ray - spheres[hit, :3]
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    half = light - ray
+    half /= np.linalg.norm(half, axis=-1, keepdims=True)
+    diffuse = np.maximum(n @ light, 0.0)
+    highlight = np.where(diffuse > 0, 3.0 * np.maximum(np.sum(n * half, axis=-1), 0.0) ** 64, 0.0)
+    rgb = albedo[hit, :3] * (0.06 + diffuse[..., None] * colour) + highlight[..., None] * colour
+    out = np.zeros((H, W, 4))
+    out[..., :3] = np.where((hit >= 0)[..., None], rgb, 0.0)
+    out[..., 3] = 1.0
+    return out
+
+
+def test_demo_scene_is_the_samples_camera_and_light(runtime):
+    """DemoScene against demo_ref: every sphere where the Sample's pinhole camera sees it, lit from the Sample's
+    light; float32 and float64 may disagree about a pixel on a silhouette, nowhere else."""
+    W, H = 96, 64
+    sim = Simulation(runtime, Params(width=W, height=H, divide=2, spheres=24), seed=3)
+    sim.frame(0.5)
+    src = sim.images()["src"]
+    spheres, albedo = demo_spheres(24, 3, 0.5, W / H)
+    want = demo_ref(W, H, spheres, albedo)
+    covered = want[..., :3].any(axis=-1)
+    assert 0.05 < covered.mean() < 0.5, "the spheres fill some of the frame"
+    off = np.abs(src - want).max(axis=-1) > 1e-3 * np.maximum(1.0, want.max(axis=-1))
+    assert off.mean() <= 0.01, f"{off.sum()} of {off.size} pixels differ from the reference"
+    assert src[..., :3].max() > 1.0, "the glints come from specular highlights exceeding 1.0"
 
 
 # }}}
