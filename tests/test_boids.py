@@ -300,6 +300,21 @@ def test_wall_turns_a_boid_back_and_is_zero_inside(runtime):
     np.testing.assert_array_equal(velocity[1], 0.0)  # inside the box the wall term is exactly 0
 
 
+def test_a_boid_on_a_wall_feels_no_wall_force(runtime):
+    """Book's avoidWall: +1 only below c - s/2, -1 only above c + s/2 (strict), so a boid exactly on a face of the
+    32^3 box (at +-16, exact in float) is still inside; a boid a step past it is pushed back."""
+    on_faces = np.array([[16, 0, 0], [-16, 0, 0], [0, 16, 0], [0, -16, 0], [0, 0, 16], [0, 0, -16]], float)
+    # 16.015625: just outside the same six faces, 8 away from the face's centre along both other axes
+    past = on_faces * (1 + 2**-10) + (on_faces == 0) * 8.0
+    sim = make(runtime, 12)  # every pair > 8 apart, 4 times the largest radius: no rule acts, only the wall
+    sim.set_boids(np.concatenate([on_faces, past]), np.zeros((12, 3)))
+    sim.step(1.0 / 60.0)
+    velocity = sim.state()["velocity"]
+    np.testing.assert_array_equal(velocity[:6], 0.0)
+    expected = -np.sign(on_faces) * sim.params.avoid_wall_weight / 60.0  # one push of weight 10 for dt = 1/60
+    np.testing.assert_allclose(velocity[6:], expected, rtol=1e-6)
+
+
 def test_speed_limit_holds_after_every_step(runtime, seed):
     sim = make(runtime, 600, seed)
     for _ in range(60):

@@ -528,6 +528,34 @@ def test_branch_pattern_grows_a_tree(runtime, max_link):
     check_pools(sim)
 
 
+def test_branch_division_hangs_the_child_on_the_less_linked_end_ties_on_a(runtime):
+    """Book's divide_edge_branch: i = lerp(e.b, e.a, step(pa.links, pb.links)), the end with fewer links; on a tie
+    (step(x, x) = 1) the edge's end a. One dividable edge, so one division, whichever work-item runs it."""
+    count = 8
+    sim = network(runtime, count=count, pattern="branch", max_divide_count=1)
+    for a, b in [(0, 1), (1, 0)]:  # links 1 and 1: the tie, in both orientations
+        parts, edges = dividable_pair(count)
+        edges["a"][0], edges["b"][0] = a, b
+        sim.load(parts, edges)
+        assert sim.divide() == 1
+        alive, pairs, _, links = graph(sim)
+        child = int(np.setdiff1d(alive, [0, 1])[0])
+        assert sorted(map(sorted, pairs.tolist())) == sorted([[0, 1], sorted([a, child])]), (a, b, pairs)
+        assert links[a] == 2 and links[b] == 1 and links[child] == 1
+    # a path 0 - 1 - 2, cell 2 too small to divide: only edge (a = 1 with 2 links, b = 0 with 1) is dividable
+    parts, edges = dividable_pair(count)
+    parts["position"][2], parts["radius"][2], parts["threshold"][2] = (2.0, 0.0), 0.1, 0.5
+    parts["alive"][2], parts["links"][2], parts["links"][1] = 1, 1, 2
+    edges[0] = (1, 0, (0.0, 0.0), 1)
+    edges[1] = (1, 2, (0.0, 0.0), 1)
+    sim.load(parts, edges)
+    assert sim.divide() == 1
+    alive, pairs, _, links = graph(sim)
+    child = int(np.setdiff1d(alive, [0, 1, 2])[0])
+    assert sorted([0, child]) in list(map(sorted, pairs.tolist())), pairs  # the end with one link split
+    assert links[0] == 2 and links[1] == 2 and links[child] == 1
+
+
 @pytest.mark.parametrize("pattern", ["closed", "branch"])
 def test_parallel_divisions_keep_the_graph_whole(runtime, pattern):
     """Default max_divide_count: the book's races may lose link updates, but edges are only ever added. Checked after

@@ -55,6 +55,12 @@ def test_noise_kernel_matches_numpy_twin(runtime, seed):
     sim = make(runtime, L=30, chains=1)
     points = np.random.default_rng(seed).uniform(-40, 40, (10000, 3)).astype(np.float32)
     assert np.abs(sim.noise_at(points) - noise_numpy(points, sim.T)).max() < 1e-6
+    # on the planes x = y, y = z, x = z two offsets tie (u = v, v = w, u = w exactly): Perlin's reference breaks the
+    # ties as hi = u >= w ? (u >= v ? 0 : 1) : (v >= w ? 1 : 2), and the other choice walks another simplex there
+    for a, b in [(0, 1), (1, 2), (0, 2)]:
+        tied = points[:2000].copy()
+        tied[:, b] = tied[:, a]
+        assert np.abs(sim.noise_at(tied) - noise_numpy(tied, sim.T)).max() < 1e-6, (a, b)
     W = sim.lattice()
     assert np.abs(W - lattice_numpy(30, sim.T)).max() < 1e-6
     # simplex vertices (x + y + z divisible by 3) are corners of their simplex: every corner term is 0 there
@@ -141,6 +147,20 @@ def test_threshold_floor_and_reset(runtime):
     # every change of position is an accepted move
     changes = np.any(np.diff(samples, axis=1) != 0, axis=2).sum(axis=1)
     assert (changes <= state["accepted"]).all()
+
+
+def test_threshold_is_strict_where_the_density_is_zero(runtime):
+    """Next accepts iff (D(x) <= 0 or ...) and D(x') > threshold, strictly: a chain whose Reset found no D > 0 (a
+    gaussian target 1e4 away: D = 0 exactly around the start) proposes D(x') = 0 every step, which threshold 0
+    refuses and threshold -100 (the book's "off") takes."""
+    far = {"density": "gaussian", "target_mean": (1e4, 1e4, 1e4), "target_sigma": 1.0, "reset_limit": 3}
+    common = {"L": 8, "chains": 64, "burn_in": 5, "samples": 20, **far}
+    for threshold, moves in [(0.0, 0), (-100.0, 25)]:
+        state = make(runtime, threshold=threshold, **common).state()
+        assert (state["reset_tries"] == 3).all() and (state["init_density"] == 0).all()
+        np.testing.assert_array_equal(state["accepted"], moves)
+        samples = state["samples"]
+        assert np.all(samples == samples[:, :1]) == (moves == 0), threshold
 
 
 @pytest.mark.parametrize("density", ["exact", "legacy", "grid", "gaussian"])

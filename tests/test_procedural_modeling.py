@@ -479,6 +479,8 @@ def test_lsystem_rewriting():
 @pytest.mark.parametrize("w, h", [(30, 30), (17, 9), (2, 2)])
 def test_grid_kernels_equal_numpy(runtime, surface, w, h):
     params = PlaneParams(width_segments=w, height_segments=h, surface=surface, width=2.0, height=3.0, depth=2.0)
+    if surface == "terrain":  # the terrain scene's noise offsets (chapter page: u_offset 0.77, v_offset 1)
+        params = params.replace(u_offset=0.77, v_offset=1.0)
     cpu = PlaneSimulation(runtime, params, seed=4).mesh()
     gpu = PlaneSimulation(runtime, params.replace(builder="opencl"), seed=4).mesh()
     np.testing.assert_array_equal(gpu.faces, cpu.faces)
@@ -487,6 +489,20 @@ def test_grid_kernels_equal_numpy(runtime, surface, w, h):
     )
     np.testing.assert_allclose(gpu.uvs, cpu.uvs, atol=1e-6)
     np.testing.assert_allclose(gpu.normals, cpu.normals, atol=1e-4)
+
+
+def test_grid_triangles_on_a_larger_launch_writes_only_its_cells(runtime):
+    """GridTriangles' guard: launched over the whole vertex grid (W, H), as GridVertices and GridNormals are, the
+    work-items of the last column and row write nothing; the cells' triangles are Plane.cs's, and nothing past them."""
+    W, H = 5, 4
+    cells = 6 * (W - 1) * (H - 1)
+    triangles = runtime.to_device(np.full(cells + 12, -7, np.int32))  # 12 sentinels past the cells
+    runtime.program("procedural_modeling", DEPTH_FN=0).kernel("GridTriangles")(
+        (W, H), None, triangles, np.int32(W), np.int32(H)
+    )
+    out = triangles.get()
+    np.testing.assert_array_equal(out[:cells].reshape(-1, 3), pm.plane(W, H, 1.0, 1.0, None).faces)
+    np.testing.assert_array_equal(out[cells:], -7)
 
 
 # }}}
