@@ -59,7 +59,7 @@ class View(BaseView):
         self.box = Lines(ctx, color=(0.0, 1.0, 1.0, 1.0))
         self.show_box, self.color_by_speed = True, False
         self.saved_weights: dict[str, float] = {}
-        self.positions = sim.boids()["position"][:, :3]  # what pictures frame (png_camera, frame)
+        self.positions = None  # what pictures frame: read by png_camera and upload, before any frame()
 
     def make_camera(self):
         """The window's first view: the whole 32^3 box from outside (``book_camera``: the book's, inside the flock;

@@ -109,6 +109,11 @@ class MeshView(BaseView):
             ]
         return [((0.0, 0.0, 0.0), material)]
 
+    def laid_out_vertices(self) -> list[np.ndarray]:
+        """The mesh's vertices at each copy of ``layout()`` (what a picture's camera frames)."""
+        vertices = self.sim.mesh().vertices.astype(np.float64)
+        return [vertices + offset for offset, _ in self.layout()]
+
     def grow_t(self) -> float:
         return NO_CLIP
 
@@ -322,10 +327,9 @@ class TubularView(MeshView):
         side by side make a wide, low row, which the window's camera shows small (the frame arrows, which reach
         past a thin tube, count too)."""
         camera = self.make_camera()
-        vertices = self.sim.mesh().vertices.astype(np.float64)
         state = self.sim.state()
         arrows = [state["curve_points"] + self.frame_scale * state[key] for key in ("frame_t", "frame_n", "frame_b")]
-        points = [vertices + offset for offset, _ in self.layout()] + [a + self.layout()[0][0] for a in arrows]
+        points = self.laid_out_vertices() + [a + self.layout()[0][0] for a in arrows]
         camera.fit(np.concatenate(points), TUBE_FILL)
         return camera
 
@@ -404,8 +408,7 @@ class TreeView(MeshView):
         """The start camera's angle, aimed at the middle of the grown tree(s) (every copy of the layout) and as
         close as keeps all of them in the picture: a tree leans its own way, and a forest is wider than tall."""
         camera = self.make_camera()
-        vertices = self.sim.mesh().vertices.astype(np.float64)
-        points = np.concatenate([vertices + offset for offset, _ in self.layout()])
+        points = np.concatenate(self.laid_out_vertices())
         lower, upper = points.min(axis=0), points.max(axis=0)
         camera.target = tuple(float(c) for c in (lower + upper) / 2)
         camera.fit(points, TREE_FILL)
