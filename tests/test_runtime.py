@@ -219,3 +219,24 @@ def test_headers_are_inlined_and_errors_name_the_file_and_line(runtime):
         assert "inline_probe.cl:3:" in log, log[:400]
     program = runtime.program_from_source(text.replace("not_declared", "POOL_COUNT"), "inline_probe.cl")
     assert not any(option.startswith("-I") for option in program.options)
+
+
+def test_read_back_mirrors_an_array_into_one_kept_host_copy(runtime):
+    """``Runtime.read_back``: the array's values (of a view at an offset too), in the same host array every call
+    (pinned once, then overwritten: the views hand it straight to GL), dropped when the device array is."""
+    import gc
+
+    values = np.arange(1000, dtype=np.float32)
+    device = runtime.to_device(values)
+    first = runtime.read_back(device)
+    assert np.array_equal(first, values)
+    device.fill(np.float32(7))
+    again = runtime.read_back(device)
+    assert again is first and np.all(again == 7)
+    part = device[10:20]
+    part.set(np.arange(10, dtype=np.float32))
+    assert np.array_equal(runtime.read_back(part), np.arange(10))
+    kept = len(runtime._staging)
+    del device, part
+    gc.collect()
+    assert len(runtime._staging) == kept - 2

@@ -244,8 +244,9 @@ class Simulation(BaseSimulation):
 
     # {{{ state
 
-    def read(self, name: str) -> np.ndarray:
-        """(H, W, 4) float32 of one buffer: pos, prev (the current read halves), normal, pos_write, prev_write."""
+    def buffer(self, name: str):
+        """The (H, W, 4) float32 device array of one buffer: pos, prev (the current read halves), normal, pos_write,
+        prev_write."""
         buffers = {
             "pos": self.pos.read,
             "prev": self.prev.read,
@@ -253,7 +254,11 @@ class Simulation(BaseSimulation):
             "pos_write": self.pos.write,
             "prev_write": self.prev.write,
         }
-        return buffers[name].get()
+        return buffers[name]
+
+    def read(self, name: str) -> np.ndarray:
+        """A host copy of ``buffer(name)``."""
+        return self.buffer(name).get()
 
     def set_positions(self, pos, prev=None) -> None:
         """Place particles by hand (tests, experiments): (H, W, 3) positions and previous positions (default pos);

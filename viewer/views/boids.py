@@ -20,6 +20,10 @@ PICTURE_YAW, PICTURE_PITCH = -30.0, 15.0
 """Where pictures look from: in front of the box, a little to the left and above."""
 CAGE_MARGIN = 0.98
 """The cage is drawn in a close-up only where every corner projects within this share of the half-frame."""
+FIT_POINTS = 65536
+"""Above this many boids a picture frames the corners of their bounding box instead of every boid: the box holds
+them all, so they all stay in the frame (a frame is a convex set), and refitting a million points each frame cost
+300 ms on the H200 machine's host."""
 CLOSE_UP_FILL = 0.6
 """Share of the half-frame the boids fill in a close-up (``OrbitCamera.fit``): room around a ball of boids, and a
 camera far enough that the near ones are not much larger than the far ones."""
@@ -85,12 +89,17 @@ class View(BaseView):
         corners = np.asarray(p.wall_center, float) + half * np.array(list(itertools.product((-1, 1), repeat=3)))
         camera.target = tuple(map(float, p.wall_center))
         camera.fit(corners)
-        centre = self.positions.mean(axis=0)
-        outward = self.positions - centre
+        points = self.positions
+        if len(points) > FIT_POINTS:
+            # column by column: numpy reduces a strided column in one tight loop, an (N, 3) axis-0 reduction row by row
+            lo, hi = (np.array([f(points[:, a]) for a in range(3)]) for f in (np.min, np.max))
+            points = np.array([[(lo, hi)[k][a] for a, k in enumerate(c)] for c in itertools.product((0, 1), repeat=3)])
+        centre = points.mean(axis=0)
+        outward = points - centre
         outward /= np.maximum(np.linalg.norm(outward, axis=1, keepdims=True), 1e-6)
         reach = 0.5 * float(np.linalg.norm(p.object_scale))  # a boid's mesh reaches this far from its centre
         near = dataclasses.replace(camera, target=tuple(map(float, centre)))
-        near.fit(self.positions + reach * outward, CLOSE_UP_FILL)
+        near.fit(points + reach * outward, CLOSE_UP_FILL)
         if near.distance >= camera.distance:
             camera.shows_cage = True
             return
@@ -99,7 +108,7 @@ class View(BaseView):
         camera.shows_cage = bool((clip[3] > 0).all() and (np.abs(clip[:2] / clip[3]) < CAGE_MARGIN).all())
 
     def upload(self) -> None:
-        data = self.sim.boids()
+        data = self.sim.runtime.read_back(self.sim.boid_data)
         self.positions = data["position"][:, :3]
         if self.instances.write(data):
             self.vao = self.ctx.vertex_array(

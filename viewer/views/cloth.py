@@ -113,10 +113,10 @@ class View(BaseView):
         if self.size != (sim.width, sim.height):
             self._resize(sim.width, sim.height)
         names = BUFFERS if self.show_buffers else ("pos", "normal")
-        data = {name: sim.read(name) for name in names}
+        data = {name: sim.runtime.read_back(sim.buffer(name)) for name in names}  # page-locked, straight to GL
         self.finite = bool(np.isfinite(data["pos"]).all())
         for name, values in data.items():
-            self.textures[name].write(values.tobytes())
+            self.textures[name].write(values)
         if self.debug:
             pos = data["pos"][..., :3].reshape(-1, 3)
             for family, lines in self.springs.items():

@@ -85,7 +85,7 @@ class View(FluidKeyActions, BaseView):
 
     def upload(self) -> None:
         w, h = self.sim.w, self.sim.h
-        field = self.sim.solver_field()
+        field = self.sim.runtime.read_back(self.sim.solver)  # page-locked, straight to GL
         if self.texture is None or self.texture.size != (w, h):
             if self.texture is not None:
                 self.texture.release()
@@ -94,7 +94,7 @@ class View(FluidKeyActions, BaseView):
             self.texture.repeat_x = self.texture.repeat_y = False
             quad = np.array([[0, 0, 0, 0], [w, 0, 1, 0], [0, h, 0, 1], [w, h, 1, 1]], "f4")
             self.vbo.write(quad.tobytes())
-        self.texture.write(field.tobytes())  # row 0 = the bottom, as GL expects
+        self.texture.write(field)  # row 0 = the bottom, as GL expects
         if self.display == "velocity":
             self.velocity_scale = 1.0 / max(float(np.abs(field[..., :2]).max()), 1e-6)
         elif self.display == "divergence":
