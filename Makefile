@@ -22,7 +22,7 @@ STAMP := $(VENV)/.installed
 SYSTEM_PACKAGES := pocl-opencl-icd ocl-icd-libopencl1 libegl1 libegl-mesa0 libgl1-mesa-dri xvfb xdotool
 
 .DEFAULT_GOAL := help
-.PHONY: help system-deps venv run test test-oclgrind test-wheel mutate bench view png anim docs lint clean
+.PHONY: help system-deps venv run test test-oclgrind test-wheel mutate bench view png anim anim-gpu docs lint clean
 
 help: ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-14s %s\n", $$1, $$2}'
@@ -72,6 +72,9 @@ png: $(STAMP) ## regenerate docs/img/<scene>.png for every scene (offscreen), th
 
 anim: $(STAMP) ## regenerate docs/img/<scene>.webp, the looping animation of each chapter page (offscreen)
 	$(BIN)/python -m ugpcl.docs animations
+
+anim-gpu: $(STAMP) ## on a GPU machine: docs/img/gpu/<scene>.webp, the flagship scenes at scale (UGPCL_DEVICE picks the GPU)
+	$(BIN)/python -m ugpcl.docs animations --gpu
 
 docs: $(STAMP) ## regenerate the key and parameter tables of docs/chapters/
 	$(BIN)/python -m ugpcl.docs tables

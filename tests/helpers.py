@@ -62,7 +62,9 @@ def judge_picture(pixels: np.ndarray, check, what: str) -> None:
     """Assert that a picture shows its subject as a scene's ``preview_check`` asks: more than ``min_subject`` of
     the frame, its bounding box clear of the frame's edge unless ``fills_frame`` says why it may not."""
     share, (x0, y0, x1, y1) = subject(pixels)
-    assert share > check.min_subject, f"{what}: the subject covers {share:.1%} of the frame (needs > {check.min_subject:.1%})"
+    assert share > check.min_subject, (
+        f"{what}: the subject covers {share:.1%} of the frame (needs > {check.min_subject:.1%})"
+    )
     if not check.fills_frame:
         h, w = pixels.shape[:2]
         assert x0 > 0 and y0 > 0 and x1 < w - 1 and y1 < h - 1, (

@@ -9,7 +9,7 @@ import numpy as np
 import pyopencl as cl
 import pytest
 
-from ugpcl.bench.device import DeviceLimits, copy_rate, fp32_rate, with_shares
+from ugpcl.bench.device import DeviceLimits, copy_rate, fp32_rate, read_back_rate, with_shares
 
 
 def fma_probe_reference(n: int, rounds: int, a: float, b: float, first: int = 0) -> np.ndarray:
@@ -51,13 +51,17 @@ def test_probes_compute_what_they_claim(runtime):
 
 def test_measured_limits_are_positive_and_shares_follow_their_columns(runtime):
     assert copy_rate(runtime, 2**20) > 0 and fp32_rate(runtime) > 0
-    limits = DeviceLimits(copy_bytes_per_s=1e9, fp32_flops=1e12)
+    assert read_back_rate(runtime, 2**20) > 0
+    limits = DeviceLimits(copy_bytes_per_s=1e9, fp32_flops=1e12, host_bytes_per_s=2e8)
     rows = with_shares([{"size": 8, "Jacobi bytes/s": 2.5e8, "x flop/s": 5e11, "ms": 1.0}], limits)
     assert list(rows[0]) == ["size", "Jacobi bytes/s", "% copy bw", "x flop/s", "% FP32 peak", "ms"]
     assert rows[0]["% copy bw"] == pytest.approx(25.0) and rows[0]["% FP32 peak"] == pytest.approx(50.0)
     # two columns of one kind (marching cubes' field and mesh): each share is named after its column
     rows = with_shares([{"field bytes/s": 1e8, "mesh bytes/s": 2e8}], limits)
     assert rows[0] == {"field bytes/s": 1e8, "field % copy bw": 10.0, "mesh bytes/s": 2e8, "mesh % copy bw": 20.0}
+    # a device-to-host rate is a share of the host link, not of the device's copies
+    rows = with_shares([{"upload host bytes/s": 1e8, "mesh bytes/s": 2e8}], limits)
+    assert rows[0] == {"upload host bytes/s": 1e8, "% host link": 50.0, "mesh bytes/s": 2e8, "% copy bw": 20.0}
 
 
 @pytest.mark.oclgrind
@@ -188,7 +192,11 @@ def test_frames_bench_times_the_parts_of_a_frame(runtime):
     from ugpcl.bench.frames import bench
 
     rows = bench(runtime, scenes=["boids", "ear_clipping"])
-    assert [r["scene"] for r in rows] == ["boids", "ear_clipping"]
+    assert [(r["scene"], r["sizes"]) for r in rows] == [
+        ("boids", "at scale (cpu)"), ("boids", "interactive"), ("ear_clipping", "defaults")
+    ]  # fmt: skip
+    assert rows[0]["upload MB"] == pytest.approx(16384 * 32 / 1e6)  # the boids' records, read back once a frame
+    rows = rows[1:]
     for row in rows:
         parts = row["step ms"] + row["upload ms"] + row["draw ms"]
         assert row["ms/frame"] == pytest.approx(parts) and row["frames/s"] == pytest.approx(1e3 / parts)

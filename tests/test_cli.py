@@ -172,6 +172,21 @@ def test_bench_prints_a_table(capsys):
     assert [row[2:4] for row in rows if row[2] == "tiled"] == [["tiled", "ForceCS"]] * 2  # start, flocking
 
 
+def test_bench_frames_times_a_flagship_scene_at_its_cpu_scale(capsys):
+    """``ugpcl bench frames --scenes`` on PoCL: the scene's at-scale row (its ``cpu`` sizes here) and, with ``--all``,
+    its row at the viewer's sizes; a scene name that does not exist, or ``--scenes`` without the frames bench, is a
+    usage error."""
+    code, out, _ = run(capsys, "bench", "frames", "--scenes", "cloth", "--all")
+    assert code == 0
+    rows = [line for line in out.splitlines() if line.startswith("cloth ")]
+    assert [row.split()[1] for row in rows] == ["at", "defaults"] and "at scale (cpu)  1280x720" in rows[0]
+    assert float(rows[0].split()[5]) > 0  # frames/s of the 128^2 cloth
+    code, _, err = run(capsys, "bench", "frames", "--scenes", "clothes")
+    assert code == 2 and "--scenes: no scene 'clothes'" in err
+    code, _, err = run(capsys, "bench", "copy", "--scenes", "cloth")
+    assert code == 2 and "only the frames bench" in err
+
+
 def test_bench_shares_of_the_device_limits_and_json_records_match_the_table(capsys, tmp_path):
     """`% copy bw` follows every `... bytes/s` column, computed from the measured copy bandwidth; --json holds one
     record per float of the tables, with the row's sizes and variants as labels."""

@@ -23,6 +23,32 @@ def test_overrides_are_valid_params_that_change_a_default(name):
         assert getattr(book, key) != value, f"{name}: interactive {key}={value!r} is already the default"
 
 
+AT_SCALE = [name for name, scene in scenes().items() if scene.at_scale]
+"""The flagship scenes (``Scene.at_scale``): their production sizes on a GPU and the same workload shrunk for a CPU."""
+
+
+def test_the_flagship_scenes_declare_their_production_sizes():
+    assert {"boids", "sph_2d", "cloth", "stable_fluids_2d", "stable_fluids_3d", "marching_cubes", "kleinian",
+            "space_colonization", "cellular_growth"} <= set(AT_SCALE)  # fmt: skip
+
+
+@pytest.mark.parametrize("name", AT_SCALE)
+def test_at_scale_sizes_are_valid_params_and_the_cpu_ones_run(runtime, name):
+    """Both size sets pass their Params' checks (ranges, cross-field limits) without allocating; the GPU one is the
+    larger (each size it sets is at least the CPU one's), and the CPU one steps here."""
+    scale = scenes()[name].at_scale
+    gpu, cpu = scenes()[name].params(**scale.gpu), scenes()[name].params(**scale.cpu)
+    assert set(scale.gpu) == set(scale.cpu), f"{name}: the CPU workload sets other parameters than the GPU one"
+    for key in scale.gpu:
+        assert getattr(gpu, key) == scale.gpu[key] and getattr(cpu, key) == scale.cpu[key]
+    sizes = [k for k, v in scale.gpu.items() if isinstance(v, int | float | tuple) and not isinstance(v, bool)]
+    assert sizes, f"{name}: at_scale sets no size"
+    sim = scenes()[name].create(runtime, 0, **scale.cpu)
+    sim.step()
+    runtime.finish()
+    assert sim.steps == 1 and cpu != gpu
+
+
 @pytest.mark.parametrize("name", SIZED)
 def test_scenes_too_slow_at_book_size_have_cpu_sizes_that_run(runtime, name):
     scene = scenes()[name]

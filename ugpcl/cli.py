@@ -317,17 +317,25 @@ def cmd_bench(args) -> int:
     from .bench.device import device_limits, with_shares
 
     benches = all_benches()
-    names = list(benches) if args.all or not args.scene else args.scene
+    names = args.scene or list(benches)
     for name in names:
         if name not in benches:
             raise UsageError(f"unknown bench {name!r}; valid: {', '.join(benches)}")
+    frames = {}  # the frames bench's own options: --scenes, and --all after a bench name (every scene's row)
+    if args.scenes is not None or (args.all and "frames" in args.scene):
+        if "frames" not in names:
+            raise UsageError("--scenes: only the frames bench takes it (ugpcl bench frames --scenes NAME ...)")
+        unknown = [s for s in args.scenes or () if s not in scenes()]
+        if unknown:
+            raise UsageError(f"--scenes: no scene {unknown[0]!r}; see ugpcl list")
+        frames = {"scenes": args.scenes, "every": args.all}
     out = output_path(args.json, "--json", (".json",))
     runtime = Runtime.shared(args.device)
     date = time.strftime("%Y-%m-%d")
     records = []
     for name in names:
         bench = benches[name]
-        rows = bench(runtime, args.size)
+        rows = bench(runtime, args.size, **frames) if name == "frames" else bench(runtime, args.size)
         if any(key.endswith(("bytes/s", "flop/s")) for row in rows for key in row):
             rows = with_shares(rows, device_limits(runtime))
         print(f"\n## {name}  ({runtime.label}, {date})")
@@ -459,7 +467,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = command("bench", "time scenes and print throughput tables", cmd_bench, [device])
     p.add_argument("scene", nargs="*", help="copy, peak, launch or chapter stems (none: all)")
-    p.add_argument("--all", action="store_true", help="every bench")
+    p.add_argument("--all", action="store_true", help="every bench; after frames: every scene at its defaults too")
+    p.add_argument("--scenes", nargs="+", default=None, metavar="NAME", help="frames bench: only these scenes")
     p.add_argument("--size", type=int, nargs="+", default=None, help="problem sizes (default: the chapter's)")
     p.add_argument("--json", default=None, metavar="FILE", help="also write every figure of the tables to FILE.json")
     return parser

@@ -5,10 +5,13 @@
     python -m ugpcl.docs images [SCENE ...]   render docs/img/<scene>.png for every (or the named) scene (make png)
     python -m ugpcl.docs animations [SCENE ...]   record docs/img/<scene>.webp, the loop of each chapter page's
                                                   picture scene (or of the named ones) (make anim)
+    python -m ugpcl.docs animations --gpu [SCENE ...]   on a GPU: record docs/img/gpu/<scene>.webp, the flagship
+                                                  scenes at scale (``Scene.at_scale``) (make anim-gpu)
 
 A block is the text between ``<!-- BEGIN generated:KIND [SCENE] -->`` and ``<!-- END generated -->``;
 KIND is ``scenes`` (the table of every scene), ``gallery`` (a thumbnail of each chapter's first scene),
-``keys`` (one scene's keys), ``all-keys``, ``params`` or ``animation`` (the page's loop and what it shows).
+``keys`` (one scene's keys), ``all-keys``, ``params``, ``animation`` (the page's loop and what it shows),
+``gpu-gallery`` (the loops at scale) or ``gpu-animation`` (one scene's loop at scale).
 """
 
 from __future__ import annotations
@@ -182,10 +185,13 @@ def animation_block(name: str, path: Path) -> str:
     )
 
 
-def record_animation(runtime, name: str, path: Path, anim: Animation | None = None) -> int:
+def record_animation(
+    runtime, name: str, path: Path, anim: Animation | None = None, at_scale: dict | None = None, size=ANIMATION_SIZE
+) -> int:
     """Record the loop of scene ``name`` (its ``Scene.animation``, or ``anim``) to ``path``: the run loop and
     recorder of ``ugpcl run --video`` (``run_steps`` with a frame callback, ``Recorder``), drawn by
-    ``offscreen.render`` through one view and camera. Returns the number of frames."""
+    ``offscreen.render`` through one view and camera. ``at_scale``: these parameters instead of the preview's, from
+    ``anim.start`` (or the start). Returns the number of frames."""
     from ugpcl.viewer.offscreen import context, render
     from ugpcl.viewer.record import Recorder
     from ugpcl.viewer.views import create_view
@@ -194,7 +200,7 @@ def record_animation(runtime, name: str, path: Path, anim: Animation | None = No
 
     scene = get(name)
     anim = anim or scene.animation
-    preview = {**scene.preview, **anim.overrides}
+    preview = {**scene.preview, **anim.overrides} if at_scale is None else {"steps": 0, **at_scale, **anim.overrides}
     steps = preview.pop("steps", 300)
     sim = scene.create(runtime, 0, **preview)
     dt = scene.simulation.default_dt
@@ -211,16 +217,79 @@ def record_animation(runtime, name: str, path: Path, anim: Animation | None = No
         def frame():
             if anim.swing:
                 camera.yaw = yaw + anim.swing * math.sin(2 * math.pi * recorder.frames / anim.frames)
-            recorder.add(render(scene, sim, ANIMATION_SIZE, view, camera))
+            recorder.add(render(scene, sim, size, view, camera))
 
         run_steps(sim, (anim.frames - 1) * anim.every, dt, quiet=True, frame=(anim.every, frame))
     return recorder.frames
+
+
+GPU_ANIMATION_SIZE = (640, 360)
+"""The loops at scale (docs/img/gpu/<scene>.webp): larger than the chapter loops, a million of anything needs pixels."""
+GPU_LOOPS = ROOT / "docs" / "img" / "gpu"
+
+
+def at_scale_loops() -> dict[str, Animation]:
+    """{scene: its loop at scale} for every flagship scene that declares one (``AtScale.loop``)."""
+    return {name: s.at_scale.loop for name, s in scenes().items() if s.at_scale is not None and s.at_scale.loop}
+
+
+def gpu_gallery(relative_to: Path) -> str:
+    """The loops at scale in a row, each with its size and what it shows (README and the chapter pages)."""
+    cells = []
+    for name, loop in at_scale_loops().items():
+        image = Path(*_relative(GPU_LOOPS / f"{name}.webp", relative_to)).as_posix()
+        cells.append((f'<img src="{image}" width="{GALLERY_WIDTH}" alt="{name} at scale">', f"{name}: {loop.shows}"))
+    lines = ["|" + " |" * len(cells), "|" + "---|" * len(cells)]
+    return "\n".join(
+        lines + ["| " + " | ".join(c[0] for c in cells) + " |", "| " + " | ".join(c[1] for c in cells) + " |"]
+    )
+
+
+def gpu_animation_block(name: str, path: Path) -> str:
+    """A chapter page's loop at scale and how it was made."""
+    scene = get(name)
+    loop = scene.at_scale.loop
+    image = Path(*_relative(GPU_LOOPS / f"{name}.webp", path.parent)).as_posix()
+    sizes = ", ".join(f"{k}={v}" for k, v in scene.at_scale.gpu.items())
+    return (
+        f"![{name} at scale]({image})\n\nAt scale on the lent GPU ({sizes}; {loop.frames} frames, {loop.every} "
+        f"step{'s' * (loop.every > 1)} a frame; `make anim-gpu` on a GPU machine): {loop.shows}."
+    )
+
+
+def gpu_animations(names: list[str] | None = None) -> int:
+    """Record docs/img/gpu/<scene>.webp for every (or the named) flagship scene at its GPU sizes; a GPU only."""
+    from .runtime import Runtime
+
+    loops = at_scale_loops()
+    unknown = set(names or ()) - set(loops)
+    if unknown:
+        print(f"animations --gpu: no loop at scale for {', '.join(sorted(unknown))}", file=sys.stderr)
+        return 2
+    runtime = Runtime()
+    if not runtime.is_gpu:
+        print(f"animations --gpu: {runtime.label} is not a GPU (the loops are a million elements); choose one "
+              "with --device or UGPCL_DEVICE", file=sys.stderr)  # fmt: skip
+        return 2
+    GPU_LOOPS.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for name, loop in loops.items():
+        if names and name not in names:
+            continue
+        path = GPU_LOOPS / f"{name}.webp"
+        frames = record_animation(runtime, name, path, loop, get(name).at_scale.gpu, GPU_ANIMATION_SIZE)
+        rows.append({"scene": name, "frames": frames, "KB": path.stat().st_size // 1024})
+        print(f"wrote {path.relative_to(ROOT)} ({frames} frames, {path.stat().st_size // 1024} KB)", file=sys.stderr)
+    print(format_table(rows))
+    return 0
 
 
 def animations(names: list[str] | None = None) -> int:
     """Record docs/img/<scene>.webp for every (or the named) chapter page's picture scene."""
     from .runtime import Runtime
 
+    if names and names[0] == "--gpu":
+        return gpu_animations(names[1:])
     shown = sorted(page_scenes().values())
     unknown = set(names or ()) - set(shown)
     if unknown:
@@ -264,6 +333,10 @@ def render_block(kind: str, scene: str | None, path: Path) -> str:
         return params_table(scene)
     if kind == "animation":
         return animation_block(scene, path)
+    if kind == "gpu-gallery":
+        return gpu_gallery(path.parent)
+    if kind == "gpu-animation":
+        return gpu_animation_block(scene, path)
     raise ValueError(f"{path}: unknown generated block {kind!r}")
 
 

@@ -478,6 +478,8 @@ class Runtime:
         self.queue = cl.CommandQueue(self.context)
         self._programs: dict[tuple, Program] = {}
         self._staging: dict[int, tuple] = {}  # read_back's pinned host copies, by id of the array they mirror
+        self.read_back_bytes = 0
+        """Bytes ``read_back`` has copied to the host (``ugpcl bench frames`` counts a view's upload with it)."""
         self._probe()
 
     # {{{ device facts
@@ -604,6 +606,7 @@ class Runtime:
             self._staging[key] = staged = (pinned, host)
         if array.nbytes:
             cl.enqueue_copy(self.queue, staged[1], array.base_data, src_offset=array.offset)
+            self.read_back_bytes += array.nbytes
         return staged[1]
 
     def finish(self) -> None:

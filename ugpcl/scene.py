@@ -569,6 +569,20 @@ class Animation:
 
 
 @dataclass(frozen=True)
+class AtScale:
+    """The scene at the size a GPU is bought for (``gpu``, parameter overrides): ``ugpcl bench frames`` times its
+    whole frame there and ``loop`` is its clip in the gpu gallery row (``python -m ugpcl.docs animations --gpu``).
+    ``cpu`` is the same workload shrunk until a CPU device runs a frame in well under a second (the bench's rows
+    there, and the test of the command)."""
+
+    gpu: dict
+    cpu: dict
+    loop: Animation | None = None
+    frame: tuple[int, int] = (1280, 720)
+    """The frame's size on a GPU (a CPU device draws the previews' 1280x720)."""
+
+
+@dataclass(frozen=True)
 class PreviewCheck:
     """How the tests judge docs/img/<scene>.png: the subject (pixels unlike the background) covers more than
     ``min_subject`` of the frame, and its bounding box stays clear of the frame's edge unless ``fills_frame`` says
@@ -605,6 +619,8 @@ class Scene:
     """Parameter overrides the viewer starts with on a CPU device, sized to run at interactive rates there (the
     book's sizes are for a GPU); ``--set`` still wins, and ``ugpcl run`` ignores them. The tests step every scene
     that has them at these sizes (a scene too slow at its book size on PoCL must have them)."""
+    at_scale: AtScale | None = None
+    """The flagship scenes' production sizes (a million particles, 256^3 grids), None for the others."""
 
     def __post_init__(self):
         if "first_scene" not in vars(self.simulation):  # Simulation.default_params: the class's first scene

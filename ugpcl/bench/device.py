@@ -105,6 +105,9 @@ class DeviceLimits:
     """Device-to-device copy of a large buffer, bytes read plus bytes written per second."""
     fp32_flops: float
     """Independent FP32 fused multiply-adds (FmaProbe), flops per second (an FMA is 2)."""
+    host_bytes_per_s: float
+    """Device-to-host copies into page-locked memory (``Runtime.read_back``), bytes per second: the link a view's
+    upload crosses."""
 
 
 _limits: dict[int, DeviceLimits] = {}
@@ -114,7 +117,8 @@ def device_limits(runtime) -> DeviceLimits:
     """The device's measured limits (measured once per device and process: about a second)."""
     key = runtime.device.int_ptr
     if key not in _limits:
-        _limits[key] = DeviceLimits(copy_rate(runtime, _copy_size(runtime)), fp32_rate(runtime))
+        size = _copy_size(runtime)
+        _limits[key] = DeviceLimits(copy_rate(runtime, size), fp32_rate(runtime), read_back_rate(runtime, size // 4))
     return _limits[key]
 
 
@@ -145,6 +149,21 @@ def copy_rate(runtime, nbytes: int) -> float:
     src.release()
     dst.release()
     return 2 * nbytes / best
+
+
+def read_back_rate(runtime, nbytes: int) -> float:
+    """Bytes per second of ``Runtime.read_back`` (device to page-locked host memory) of one buffer: the best of
+    five, after a first read that pins the host copy."""
+    import numpy as np
+
+    array = runtime.zeros(nbytes // 4, np.float32)
+    runtime.read_back(array)
+    best = float("inf")
+    for _ in range(5):
+        start = time.perf_counter()
+        runtime.read_back(array)
+        best = min(best, time.perf_counter() - start)
+    return array.nbytes / best
 
 
 def fp32_rate(runtime) -> float:
@@ -186,18 +205,28 @@ def bench_peak(runtime, sizes=None) -> list[dict]:
 
 
 def with_shares(rows: list[dict], limits: DeviceLimits) -> list[dict]:
-    """``rows`` with ``% copy bw`` after each ``... bytes/s`` column and ``% FP32 peak`` after each ``... flop/s``;
-    a row with two such columns of one kind names each share after its column (``field % copy bw``)."""
-    shares = (("bytes/s", "% copy bw", limits.copy_bytes_per_s), ("flop/s", "% FP32 peak", limits.fp32_flops))
+    """``rows`` with ``% copy bw`` after each ``... bytes/s`` column, ``% host link`` after each ``... host bytes/s``
+    (device to host, ``Runtime.read_back``) and ``% FP32 peak`` after each ``... flop/s``; a row with two such
+    columns of one kind names each share after its column (``field % copy bw``)."""
+    shares = (
+        ("host bytes/s", "% host link", limits.host_bytes_per_s),
+        ("bytes/s", "% copy bw", limits.copy_bytes_per_s),
+        ("flop/s", "% FP32 peak", limits.fp32_flops),
+    )
+
+    def kind(key: str):
+        return next((s for s in shares if key.endswith(s[0])), None)
+
     out = []
     for row in rows:
         shared = {}
         for key, value in row.items():
             shared[key] = value
-            for unit, share, limit in shares:
-                if key.endswith(unit) and isinstance(value, float):
-                    several = sum(k.endswith(unit) for k in row) > 1
-                    shared[f"{key[: -len(unit)].strip()} {share}" if several else share] = 100.0 * value / limit
+            found = kind(key)
+            if found and isinstance(value, float):
+                unit, share, limit = found
+                several = sum(kind(k) is found for k in row) > 1
+                shared[f"{key[: -len(unit)].strip()} {share}" if several else share] = 100.0 * value / limit
         out.append(shared)
     return out
 

@@ -23,7 +23,7 @@ import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
 from ..grid import UniformGrid
-from ..scene import Animation, PreviewCheck, Scene, param
+from ..scene import Animation, AtScale, PreviewCheck, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
 
@@ -82,6 +82,10 @@ class Params(BaseParams):
     """ForceCS kernel: tiled = the book's local-memory tiles with barriers (ForceCS), lanes = 16 boids per work-item
     in vector lanes (ForceCS_cpu), naive = the plain global-memory loop, grid = the uniform grid; auto = tiled on a
     GPU, lanes on a CPU device. The same forces up to float rounding."""
+    start: str = param("book", choices=("book", "spread"))
+    """Where the boids start: book = uniform in a ball of radius 1 (Random.insideUnitSphere); spread = uniform in the
+    wall box, as a flock that has spread out (at a million boids the book's ball puts every boid in every other's
+    radius, so the large sizes of the grid start spread)."""
 
 
 class Simulation(BaseSimulation):
@@ -102,7 +106,10 @@ class Simulation(BaseSimulation):
         # devices get the vector-lane kernel (variant=lanes); GPUs and Oclgrind (which checks them) the tiles
         cpu = bool(rt.device.type & cl.device_type.CPU) and not rt.is_oclgrind
         self.auto_kernel = FORCE_KERNELS["lanes" if cpu else "tiled"]
-        self.boid_data = rt.to_device(initial_boids(self.n, self.seed))
+        boids = initial_boids(self.n, self.seed)
+        if p.start == "spread":
+            boids["position"][:, :3] = spread_positions(self.n, self.seed, p.wall_center, p.wall_size)
+        self.boid_data = rt.to_device(boids)
         self.boid_force = rt.zeros(self.n, cltypes.float4)
         self.grid = None  # built on first use by variant=grid
 
@@ -227,6 +234,12 @@ def initial_boids(n: int, seed: int) -> np.ndarray:
     return data
 
 
+def spread_positions(n: int, seed: int, center, size) -> np.ndarray:
+    """(n, 3) positions uniform in the box of ``center`` and ``size`` (start=spread), seeded apart from the ball's."""
+    rng = np.random.default_rng([seed, 1])
+    return (np.asarray(center) + (rng.random((n, 3)) - 0.5) * np.asarray(size)).astype(np.float32)
+
+
 def inside_unit_sphere(rng: np.random.Generator, n: int) -> np.ndarray:
     """Unity's Random.insideUnitSphere: n points uniform in the unit ball."""
     direction = rng.normal(size=(n, 3))
@@ -248,6 +261,12 @@ SCENES = [
             "alignment_neighborhood_radius": 4.0,
         },
         interactive={"max_object_num": 2048},
+        # about 30 neighbours within radius 2 (0.9 boids per unit^3), spread through the box from the start
+        at_scale=AtScale(
+            gpu={"max_object_num": 1 << 20, "variant": "grid", "start": "spread", "wall_size": (105.0, 105.0, 105.0)},
+            cpu={"max_object_num": 1 << 14, "variant": "grid", "start": "spread", "wall_size": (26.0, 26.0, 26.0)},
+            loop=Animation("a million boids, spread through the box at the start, gather into streams", every=4),
+        ),
         animation=Animation("the flock turning in its box", every=3),
         preview_check=PreviewCheck(min_subject=0.02, sparse="small boids spread through their cage"),
     )

@@ -42,7 +42,7 @@ import pyopencl.cltypes as cltypes
 
 from ..buffers import PingPong, Pool
 from ..grid import UniformGrid
-from ..scene import Animation, Scene, param
+from ..scene import Animation, AtScale, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
 
@@ -631,6 +631,7 @@ SCENES = [
             start=360,
             overrides={"camera": "book"},
         ),
+        at_scale=AtScale(gpu={"count": 1 << 20, "search": "grid"}, cpu={"count": 1 << 14, "search": "grid"}),
     ),
     Scene(
         "cellular_growth_particles",

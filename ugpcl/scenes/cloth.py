@@ -31,7 +31,7 @@ from ..buffers import PingPong
 from ..geometry.cloth import grid_triangles
 from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
-from ..scene import Animation, Scene, param
+from ..scene import Animation, AtScale, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
 
@@ -332,6 +332,12 @@ SCENES = [
         defaults=MAIN_SCENE,
         preview={"steps": 1000},
         animation=Animation("the sphere pushes into the hanging cloth, which drapes over it", every=12, start=560),
+        # the book's 3.2 m sheet, finer
+        at_scale=AtScale(
+            gpu={"res": (1024, 1024), "rest_length": 3.2 / 1024},
+            cpu={"res": (128, 128), "rest_length": 3.2 / 128},
+            loop=Animation("a million-particle cloth drapes over the sphere", every=12, start=560),
+        ),
     ),
     Scene(
         "cloth_debug",

@@ -25,7 +25,7 @@ import numpy as np
 import pyopencl.cltypes as cltypes
 
 from ..resources import Allocation
-from ..scene import Animation, PreviewCheck, Scene, param
+from ..scene import Animation, AtScale, PreviewCheck, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
 
@@ -339,6 +339,7 @@ SCENES = [
             overrides={"use_uv_animation": True},
         ),
         preview_check=PreviewCheck(fills_frame="the limit set tiles the whole plane"),
+        at_scale=AtScale(gpu={"width": 3840, "height": 2160}, cpu={"width": 1280, "height": 720}, frame=(3840, 2160)),
     ),
     Scene(
         "kleinian_inverse",

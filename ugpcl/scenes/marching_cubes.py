@@ -33,7 +33,7 @@ from ..buffers import Pool
 from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
 from ..resources import Allocation
-from ..scene import Animation, PreviewCheck, Scene, param
+from ..scene import Animation, AtScale, PreviewCheck, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
 
@@ -336,6 +336,7 @@ SCENES = [
             frames=47,
         ),
         preview_check=PreviewCheck(fills_frame="the floor runs to the horizon"),
+        at_scale=AtScale(gpu={"segment_num": 256}, cpu={"segment_num": 48}),
     ),
     Scene(
         "marching_cubes_kaiware",

@@ -47,7 +47,7 @@ from ..geometry.mesh import Mesh
 from ..geometry.mesh_io import write_mesh
 from ..grid import LOCAL_SIZE as GRID_LOCAL_SIZE
 from ..grid import UniformGrid
-from ..scene import Animation, Scene, param
+from ..scene import Animation, AtScale, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
 
@@ -571,6 +571,7 @@ SCENES = [
             start=12,
             overrides=BOOK_PACE,
         ),
+        at_scale=AtScale(gpu={"side": 160, "search": "grid"}, cpu={"side": 40, "search": "grid"}),
     ),
     Scene(
         "space_colonization_tubes",

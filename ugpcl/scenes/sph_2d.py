@@ -30,7 +30,7 @@ import pyopencl.cltypes as cltypes
 
 from ..buffers import PingPong
 from ..grid import UniformGrid
-from ..scene import Animation, PreviewCheck, Scene, param
+from ..scene import Animation, AtScale, PreviewCheck, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
 
@@ -403,6 +403,12 @@ SCENES = [
         preview={"steps": 900, "particle_num": 4096, "ball_radius": 3.5, "start": "dam_break", "search": "grid"},
         # a smaller disc at the spacing of the book's 8192 particles in radius 5
         interactive={"particle_num": 4096, "ball_radius": 3.5, "search": "grid"},
+        # the disc and box scaled by sqrt(N / 8192): the number density of the book's 8192 (ugpcl.bench.sph_2d)
+        at_scale=AtScale(
+            gpu={"particle_num": 1 << 20, "search": "grid", "range": (181.02, 101.82), "ball_radius": 56.57},
+            cpu={"particle_num": 1 << 14, "search": "grid", "range": (22.63, 12.73), "ball_radius": 7.07},
+            loop=Animation("a million particles: the disc falls, splashes and spreads over the floor", every=6),
+        ),
         animation=Animation(
             "the dam break: the column falls, splashes against the far wall and settles",
             every=25,

@@ -39,7 +39,7 @@ import pyopencl.cltypes as cltypes
 from ..buffers import PingPong, put
 from ..resources import Allocation
 from ..runtime import fitted_shape
-from ..scene import Animation, PreviewCheck, Scene, param
+from ..scene import Animation, AtScale, PreviewCheck, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
 
@@ -590,5 +590,6 @@ SCENES = [
             "a dark stroke of 0.6 % of an 800x600 frame; the preview's ring covers 30 %",
         ),
         animation=Animation("the scripted circle stroke stirs the ink round", every=2),
+        at_scale=AtScale(gpu={"width": 2048, "height": 2048}, cpu={"width": 256, "height": 256}),
     )
 ]

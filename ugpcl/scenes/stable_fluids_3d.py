@@ -39,7 +39,7 @@ import pyopencl.cltypes as cltypes
 from ..buffers import PingPong, put
 from ..resources import Allocation
 from ..runtime import fitted_shape
-from ..scene import Animation, PreviewCheck, Scene, param
+from ..scene import Animation, AtScale, PreviewCheck, Scene, param
 from ..scene import Params as BaseParams
 from ..scene import Simulation as BaseSimulation
 from .stable_fluids_2d import StripSweeps
@@ -520,6 +520,11 @@ SCENES = [
             "emitter_direction": (0.4, 1.0, 0.0),
         },
         interactive={"width": 40, "height": 40, "depth": 40},
+        at_scale=AtScale(
+            gpu={"width": 256, "height": 256, "depth": 256},
+            cpu={"width": 48, "height": 48, "depth": 48},
+            loop=Animation("smoke rising in a 256^3 grid while the camera swings", every=5, start=20, swing=25.0),
+        ),
         preview_check=PreviewCheck(
             min_subject=0.012,
             sparse="smoke from one emitter in a wire box: after ten frames a puff of about 1 % of the frame inside the "
