@@ -19,6 +19,9 @@
 //                               memory, block sums scanned recursively by the host)
 //   2c. GenerateTriangles    field, cell_ntri, cell_off -> triangles[cell_off[cell] ...]: output in cell order
 //       GenerateTriangles_cpu
+//   then, when the viewer draws the kernels' mesh (Simulation.draw_vertices), once per frame on every device:
+//   3. PackVertices          triangles[count] -> vertices[3 count][6]: each corner's position and normal side by side,
+//                               the layout of the mesh draw's vertex buffer, without the cell id (72 of 76 bytes cross)
 // Build defines: SCAN_BLOCK_SIZE = work-group size of ScanBlocks (a power of two; 256); SHAPE = SHAPE_SPHERES (0) or
 //   SHAPE_KAIWARE (1): the field (a define: a program holds one field's code and tests no shape per sample).
 // Arguments shared by the field and normal code: N (book: _SegmentNum), radius.xyz = the three
@@ -441,6 +444,23 @@ __kernel void GenerateTriangles_cpu(const __global float* field, float threshold
             const uint slot = cell_off[cell] + i;
             if (slot < (uint)capacity) store_triangle(&triangles[slot], flag_index, i, vertex, normal, N, (uint)cell);
         }
+    }
+}
+
+// }}}
+
+// {{{ 3. the draw's vertices
+
+// One work-item per triangle: corner j's position and normal become floats 6j .. 6j + 5 of its 18, so the host reads
+// only what the draw uses into the GL vertex buffer as it is (no repacking on the host).
+__kernel void PackVertices(const __global McTriangle* triangles, int count, __global float* vertices) {
+    const int t = get_global_id(0);
+    if (t >= count) return;
+    const __global McTriangle* triangle = triangles + t;
+    __global float* out = vertices + 18 * (size_t)t;
+    for (int j = 0; j < 3; j++) {
+        vstore3(vload3(j, triangle->position), 2 * j, out);
+        vstore3(vload3(j, triangle->normal), 2 * j + 1, out);
     }
 }
 

@@ -484,6 +484,28 @@ def test_append_and_scan_paths_write_the_same_arrays(runtime):
         np.testing.assert_array_equal(append[key], scan[key])
 
 
+def draw_reference(sim) -> np.ndarray:
+    """What the view drew before PackVertices: each pooled corner's position and normal side by side, pool order."""
+    tri = sim.pool.read()
+    return np.concatenate([tri["position"].reshape(-1, 3), tri["normal"].reshape(-1, 3)], axis=1)
+
+
+@pytest.mark.parametrize("path", ["append", "scan"])
+def test_draw_vertices_are_the_pooled_triangles(runtime, path):
+    """PackVertices hands the draw the pool's triangles bit for bit, frame after frame, as the mesh and its pinned
+    buffers grow and after a reset; a frame without triangles is an empty array."""
+    sim = make(runtime, 12, shape="kaiware", time=1.0, path=path, triangle_capacity=10)  # the pool grows once
+    for change in ({}, {"segment_num": 24}, {"time": 2.0}, {"threshold": 1.0}):
+        if change:
+            sim.update(**change)
+            sim.remesh()
+        vertices = sim.draw_vertices()
+        assert vertices.dtype == np.float32 and vertices.flags.c_contiguous
+        assert len(vertices) == 3 * sim.pool.count() == 3 * sim.frame_counts[-1]
+        np.testing.assert_array_equal(vertices, draw_reference(sim))
+    assert len(vertices) == 0  # threshold 1: every corner outside, no cut cell
+
+
 # }}}
 
 # {{{ topology, orientation, animation
@@ -652,6 +674,7 @@ def test_geometry_shader_emits_the_kernels_triangles(runtime, gl):
     view = create_view(scene, gl, sim)
     view.shadows, view.show_floor = False, False
     camera = view.png_camera()
+    view.use_gs = True  # the book's path (the view starts with the kernels' mesh)
     view.field_source = 1  # corners from SampleField's texture: the very same cases as the OpenCL path
     texture_image = _render(view, camera)
     assert view.gs_triangles == sim.pool.count() > 0
@@ -667,17 +690,19 @@ def test_geometry_shader_emits_the_kernels_triangles(runtime, gl):
 
 
 @pytest.mark.gl
-def test_view_shows_a_lit_surface_where_the_spheres_are(runtime, gl):
+@pytest.mark.parametrize("use_gs", [False, True], ids=["mesh", "geometry-shader"])
+def test_view_shows_a_lit_surface_where_the_spheres_are(runtime, gl, use_gs):
     from ugpcl.viewer.views import create_view
 
     scene = get("marching_cubes")
     sim = scene.create(runtime, segment_num=32, shape="spheres-book")  # radii 0.10-0.125: one blob of three balls
     view = create_view(scene, gl, sim)
-    view.show_floor = False
+    assert not view.use_gs  # the kernels' mesh by default
+    view.show_floor, view.use_gs = False, use_gs
     camera = view.make_camera()  # the book's: (0, 0, -1) looking at the object
     size = (128, 128)
     image = _render(view, camera, size)
-    assert view.gs_triangles == sim.pool.count()
+    assert (view.gs_triangles if use_gs else view.mesh_vertices // 3) == sim.pool.count()
     mask = foreground(image, view.background)
     # sphere centres (object y = -0.25, 0, 0.25; the 180-degree yaw leaves x = z = 0)
     centres = _project(camera, np.array([[0.0, -0.25, 0.0], [0.0, 0.0, 0.0], [0.0, 0.25, 0.0]]), size)
@@ -736,7 +761,7 @@ def test_view_keys_change_the_simulation(runtime, gl):
     view.toggle_animation()
     assert not sim.params.animate
     view.toggle_path()
-    assert not view.use_gs
+    assert view.use_gs
     view.toggle_kernel_path()
     assert sim.params.path == "scan"
     view.toggle_normals()
@@ -762,6 +787,11 @@ def test_kernels_on_oclgrind(oclgrind):
         np.testing.assert_allclose(state["field"], field_reference(9, "spheres-book", 0.0), atol=2e-6)
     kaiware = Simulation(oclgrind, Params(segment_num=8, shape="kaiware", normals="grid", time=1.0))
     assert kaiware.state()["tri_count"] > 0
+    # PackVertices on a pool filled to the last slot: its vertex buffers then have no slack either
+    exact = kaiware.pool.count()
+    full = Simulation(oclgrind, Params(segment_num=8, shape="kaiware", time=1.0, triangle_capacity=exact))
+    assert full.pool.count() == full.pool.capacity and full.overflows == 0
+    np.testing.assert_array_equal(full.draw_vertices(), draw_reference(full))
     # the *_cpu kernels: N = 9 has a full run of 8 cells and a run of 1 per row (the field: 8 + 2 points), N = 16
     # full runs whose last vload8 reads the row's last point
     for n, shape in ((9, "spheres-book"), (16, "spheres-repo"), (9, "kaiware")):

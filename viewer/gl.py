@@ -162,14 +162,15 @@ class GrowableBuffer:
         self.buffer: moderngl.Buffer | None = None
 
     def write(self, data) -> bool:
-        raw = data if isinstance(data, bytes) else np.ascontiguousarray(data).tobytes()
+        # an array is written through its buffer as bytes, without the host copy tobytes() would make
+        raw = data if isinstance(data, bytes) else np.ascontiguousarray(data).reshape(-1).view(np.uint8)
         need = max(len(raw), self.min_bytes)
         grown = self.buffer is None or self.buffer.size < need
         if grown:
             if self.buffer is not None:
                 self.buffer.release()
             self.buffer = self.ctx.buffer(reserve=int(need * self.headroom))
-        if raw:
+        if len(raw):
             self.buffer.write(raw)
         return grown
 

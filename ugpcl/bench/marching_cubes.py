@@ -14,7 +14,9 @@ def bench(runtime, sizes=None) -> list[dict]:
     evaluations) and for each OpenCL path on that field, voxels (cells) per second of the meshing alone and of field +
     mesh, against scikit-image's marching_cubes (lorensen) meshing the same float32 field in the same run (where
     scikit-image, a test dependency, is installed); the field's write traffic and the meshing's least read traffic (4
-    bytes per grid point each) per second. "kernels": the *_cpu kernels (CPU devices) or the one-cell kernels."""
+    bytes per grid point each) per second. "kernels": the *_cpu kernels (CPU devices) or the one-cell kernels.
+    "ms draw read": what the viewer's upload takes from the device, PackVertices and the read of the frame's
+    triangles (72 bytes each) into pinned host memory (``Simulation.draw_vertices``), the GL upload excluded."""
     try:
         from skimage.measure import marching_cubes as skimage_marching_cubes
     except ImportError:
@@ -29,6 +31,7 @@ def bench(runtime, sizes=None) -> list[dict]:
         for path in ("append", "scan"):
             sim.update(path=path)
             mesh_s = seconds_per_call(sim.polygonize, queue, max_calls=50)
+            read_s = seconds_per_call(sim.draw_vertices, queue, max_calls=50)
             rows.append(
                 {
                     "N": n,
@@ -36,6 +39,7 @@ def bench(runtime, sizes=None) -> list[dict]:
                     "kernels": "cpu" if sim.cpu_kernels else "one-cell",
                     "ms field": field_s * 1e3,
                     "ms mesh": mesh_s * 1e3,
+                    "ms draw read": read_s * 1e3,
                     "triangles": sim.pool.count(),
                     "voxels/s mesh": cells / mesh_s,
                     "voxels/s field+mesh": cells / (field_s + mesh_s),
@@ -57,6 +61,7 @@ def bench(runtime, sizes=None) -> list[dict]:
                 "kernels": "-",
                 "ms field": "-",
                 "ms mesh": mesh_s * 1e3,
+                "ms draw read": "-",
                 "triangles": len(faces),
                 "voxels/s mesh": cells / mesh_s,
                 "voxels/s field+mesh": "-",

@@ -10,7 +10,8 @@ Kernel order per frame (``step`` advances the field's time first when ``animate`
 cell appends its triangles to a ``Pool`` with ``atomic_inc``; an overflow is counted, the pool grows and the kernel
 runs again) or ``ClassifyCells`` -> ``ScanBlocks``/``AddBlockOffsets`` -> ``GenerateTriangles`` (``path=scan``:
 triangles written in cell order). ``state()`` sorts the append path's triangles by cell (stable), so both paths
-write the same arrays. The viewer's geometry-shader path (viewer/views/marching_cubes.py) is the book's own.
+write the same arrays. The viewer draws these triangles as a mesh (``draw_vertices``: ``PackVertices``, then one read
+of the frame's triangles); its geometry-shader path (viewer/views/marching_cubes.py) is the book's own.
 
 What differs from the book: the GS evaluates the field 8 times per cell, twice per frame (lit and shadow pass);
 here it is evaluated once per grid point. The book's 65535-point meshes wrap around and process z-layers twice
@@ -62,7 +63,9 @@ CAPACITY_PER_FACE_CELL = 4
 """First pool size: this many triangles per cell of one box face (4 N^2); grown on overflow."""
 GROWTH = 1.25
 """An overflowing pool is reallocated to GROWTH x the triangles the frame needed (docs/chapters/07-marching-cubes.md,
-"Kernels")."""
+"Kernels"); the draw's vertex buffers grow the same way."""
+VERTEX_FLOATS = 6
+"""Floats per vertex of ``draw_vertices`` (PackVertices): position (x, y, z), then normal (x, y, z)."""
 
 
 @dataclass(frozen=True)
@@ -131,6 +134,7 @@ class Simulation(BaseSimulation):
         self.field = rt.zeros((self.n + 1) ** 3, np.float32)
         self.pool = Pool(rt, p.triangle_capacity or CAPACITY_PER_FACE_CELL * self.n**2, TRIANGLE_DTYPE, "triangles")
         self.cell_ntri = None  # the two-pass buffers, made on first use
+        self.draw_device = self.draw_host = None  # draw_vertices' buffers, made on first use (a view's, sized to it)
         self.scan_levels: dict[int, tuple] = {}
         self.field_time = p.time
         self.overflowed = False  # whether the last frame needed a bigger pool
@@ -266,6 +270,33 @@ class Simulation(BaseSimulation):
         """The frame's triangles (T,) of TRIANGLE_DTYPE sorted by cell; a cell's own triangles keep table order."""
         items = self.pool.read()
         return items[np.argsort(items["cell"], kind="stable")]
+
+    def draw_vertices(self) -> np.ndarray:
+        """The frame's triangles as the viewer's mesh draw reads them: (3 T, VERTEX_FLOATS) float32, each corner's
+        position and normal, in pool order (PackVertices). Only the frame's T triangles cross to the host, 72 bytes
+        each, into pinned host memory (the DMA path; pageable memory is staged by the driver). The result is a view
+        of that memory: the next call overwrites it."""
+        count = self.frame_counts[-1]  # polygonize read the pool's counter: no second device read
+        if self.draw_host is None or len(self.draw_host) < 3 * count:
+            self._make_draw_buffers(min(self.pool.capacity, math.ceil(count * GROWTH)))
+        host = self.draw_host[: 3 * count]
+        if count:
+            device = self.draw_device
+            self.program.kernel("PackVertices").over(count, FIELD_GROUP, self.pool.items.data, np.int32(count), device)
+            cl.enqueue_copy(self.runtime.queue, host, device)  # host.nbytes = 72 T bytes from the start
+        return host
+
+    def _make_draw_buffers(self, triangles: int) -> None:
+        """PackVertices' output on the device and its pinned host copy, for ``triangles`` triangles: a buffer the
+        host can page-lock (ALLOC_HOST_PTR), mapped once and kept mapped; dropping the array unmaps it."""
+        rt, shape = self.runtime, (3 * triangles, VERTEX_FLOATS)
+        self.draw_host = None  # the old mapping goes first
+        self.draw_device = rt.empty(shape, np.float32).data
+        flags = cl.mem_flags.READ_WRITE | cl.mem_flags.ALLOC_HOST_PTR
+        pinned = cl.Buffer(rt.context, flags, self.draw_device.size)
+        self.draw_host, _ = cl.enqueue_map_buffer(
+            rt.queue, pinned, cl.map_flags.READ | cl.map_flags.WRITE, 0, shape, np.float32
+        )
 
     def field_array(self) -> np.ndarray:
         """The sampled field as (N+1, N+1, N+1) float32 indexed [z, y, x]."""

@@ -1,9 +1,14 @@
 """Marching cubes view (vol.1 ch.7, GPUMarchingCubesRenderStandardMesh.shader).
 
-Two ways to draw the same surface: the book's, where a geometry shader runs once per grid cell (an attribute-less
-draw of N^3 points) and emits the cell's triangles, and the OpenCL path's triangles (the Simulation's Pool) drawn
-as a plain mesh. Tab switches between them; the status line shows the triangle count of the path on screen (a
-GL primitives-generated query for the geometry shader, the pool's counter for the kernels).
+Two ways to draw the same surface: the OpenCL path's triangles (the Simulation's Pool, made by every step) drawn as
+a plain mesh, the default, and the book's, where a geometry shader runs once per grid cell (an attribute-less draw
+of N^3 points) and emits the cell's triangles. Tab switches between them; the status line shows the triangle count
+of the path on screen (a GL primitives-generated query for the geometry shader, the pool's counter for the kernels).
+
+The mesh is the default because the step has already made it: the geometry shader polygonises the field again,
+twice a frame (lit and shadow pass), evaluating it 8 times per cell, in graphics shaders (an H100 or H200 runs those
+on 2 of its TPCs; OpenCL has all of them). The mesh's upload moves only the frame's triangles, 72 bytes each
+(Simulation.draw_vertices).
 """
 
 from __future__ import annotations
@@ -109,7 +114,7 @@ class View(BaseView):
             self.programs[("mesh", "lit")], [(self.floor_vbo, "3f 3f", "in_position", "in_normal")]
         )
         self.query = ctx.query(primitives=True)
-        self.use_gs, self.field_source, self.wireframe, self.show_floor, self.shadows = True, 0, False, True, True
+        self.use_gs, self.field_source, self.wireframe, self.show_floor, self.shadows = False, 0, False, True, True
         self.gs_triangles = 0
         # Unity culls back faces (Cull Back); its left-handed world behind the viewer's z-mirror turns the outward
         # faces clockwise on screen. The tests flip these two to prove that the mesh's winding is outward.
@@ -134,11 +139,9 @@ class View(BaseView):
                     self.field_texture.release()
                 self.field_texture = self.ctx.texture3d((n + 1,) * 3, 1, dtype="f4")
                 self.field_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-            self.field_texture.write(np.ascontiguousarray(data, np.float32).tobytes())
+            self.field_texture.write(data)  # float32, C-contiguous: written as it is, no host copy
         if not self.use_gs:
-            tri = self.sim.pool.read()
-            vertices = np.concatenate([tri["position"].reshape(-1, 3), tri["normal"].reshape(-1, 3)], axis=1)
-            vertices = np.ascontiguousarray(vertices, np.float32)
+            vertices = self.sim.draw_vertices()  # (3 T, 6) float32: position, normal; the frame's triangles only
             if self.mesh_vbo.write(vertices):
                 vbo = self.mesh_vbo.buffer
                 self.mesh_vaos = {  # the shadow pass reads positions only (its program has no in_normal)
