@@ -110,3 +110,28 @@ def test_a_size_of_two_sides_is_capped_side_by_side(runtime, monkeypatch, capsys
         return sum(a.total for a in scene.simulation.allocations(scene.params(face_resolution=size)) if a.host or cpu)
 
     assert host_bytes((width, height)) <= 64 << 20 < host_bytes((width + 1, height + 1))
+
+
+def test_a_control_groups_memory_limit_caps_the_memory_available(tmp_path, monkeypatch):
+    """A container or a batch job's cgroup: the headroom of the tightest group on the way up (v2 and v1 layouts),
+    none where no group sets a limit, and ``host_memory_available`` is the smaller of that and the machine's."""
+    v2 = tmp_path / "v2"
+    for folder, limit, usage in (("", "max", 9 << 30), ("job", str(16 << 30), 4 << 30), ("job/run", "max", 3 << 30)):
+        (v2 / folder).mkdir(parents=True, exist_ok=True)
+        (v2 / folder / "memory.max").write_text(limit + "\n")
+        (v2 / folder / "memory.current").write_text(f"{usage}\n")
+    membership = tmp_path / "cgroup"
+    membership.write_text("0::/job/run\n")
+    assert resources.cgroup_memory_left(v2, membership) == 12 << 30  # the job's 16 GiB less its 4 in use
+    v1 = tmp_path / "v1"
+    (v1 / "memory" / "box").mkdir(parents=True)
+    for folder, limit, usage in (("memory", 9223372036854771712, 1 << 30), ("memory/box", 2 << 30, 1 << 29)):
+        (v1 / folder / "memory.limit_in_bytes").write_text(f"{limit}\n")
+        (v1 / folder / "memory.usage_in_bytes").write_text(f"{usage}\n")
+    membership.write_text("9:name=systemd:/\n4:memory:/box\n0::/\n")
+    assert resources.cgroup_memory_left(v1, membership) == (2 << 30) - (1 << 29)
+    membership.write_text("4:memory:/\n")
+    assert resources.cgroup_memory_left(v1, membership) is None  # the root's "no limit"
+    assert resources.cgroup_memory_left(v1, tmp_path / "missing") is None
+    monkeypatch.setattr(resources, "cgroup_memory_left", lambda: 1 << 20)
+    assert resources.host_memory_available() == 1 << 20

@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import os
 from dataclasses import dataclass
+from pathlib import Path
 
 import pyopencl as cl
 
@@ -42,15 +43,49 @@ class Allocation:
 
 
 def host_memory_available() -> int:
-    """Bytes of host memory a run can take now (MemAvailable: free memory plus caches the kernel can drop)."""
+    """Bytes of host memory a run can take now: MemAvailable (free memory plus caches the kernel can drop), or less
+    where this process's control group (a container, a systemd slice, a batch job) allows less."""
     try:
         with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
+            machine = next(int(line.split()[1]) * 1024 for line in f if line.startswith("MemAvailable:"))
+    except (OSError, StopIteration):
+        machine = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    group = cgroup_memory_left()
+    return machine if group is None else min(machine, group)
+
+
+CGROUP_FILES = {"": ("memory.max", "memory.current"), "memory": ("memory.limit_in_bytes", "memory.usage_in_bytes")}
+"""The limit and the usage of a memory control group: cgroup v2 (the unified hierarchy, controllers "") and v1."""
+
+
+def cgroup_memory_left(root: Path = Path("/sys/fs/cgroup"), membership: Path = Path("/proc/self/cgroup")) -> int | None:
+    """The least headroom (limit less usage) of this process's memory control group and the groups above it, in
+    bytes; None where no group sets a limit (or the files cannot be read). A kill by the OOM killer comes from the
+    group's limit, not from the machine's free memory."""
+    try:
+        lines = membership.read_text().splitlines()
     except OSError:
-        pass
-    return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+        return None
+    left = None
+    for line in lines:
+        _, controllers, path = line.split(":", 2)
+        if controllers not in CGROUP_FILES and "memory" not in controllers.split(","):
+            continue
+        limit_name, usage_name = CGROUP_FILES["" if controllers == "" else "memory"]
+        base = root if controllers == "" else root / "memory"
+        folder = base / path.lstrip("/")
+        while True:  # this group, then each group above it up to the mount's root
+            try:
+                limit = (folder / limit_name).read_text().strip()
+                usage = int((folder / usage_name).read_text())
+                if limit != "max" and int(limit) < 1 << 60:  # v1 writes "no limit" as about 2^63
+                    left = int(limit) - usage if left is None else min(left, int(limit) - usage)
+            except (OSError, ValueError):
+                pass
+            if folder == base or base not in folder.parents:
+                break
+            folder = folder.parent
+    return None if left is None else max(left, 0)
 
 
 def gib(nbytes: int) -> str:
