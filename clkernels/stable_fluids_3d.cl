@@ -18,13 +18,16 @@
 //   and compute the kernel's value at those cells from its inputs; the grid's groups compute the interior (see
 //   wall_item). Every value is the one a sweep followed by separate face, edge and corner launches gives, bit for bit.
 // Kernels, in host call order per step, and in this file's order:
-//   AddSourceBrush3D     -> source: spherical emitter f = clamp(1 - |(uvw - c)/r|^2, 0, 1), source = (dir*f, f)
+//   AddSourceBrush3D     -> source: spherical emitter f = clamp(1 - |(uvw - c)/r|^2, 0, 1), source = (dir*f, f);
+//                        the host runs it only when the emitter's parameters or the source buffer changed
 //   velocity step (skipped when density_only):
 //   AddSourceVelocity    velocity += s.xyz*velocityCoef*dt, prev.xyz = s.xyz*velocityCoef*dt   (own cell, in place)
 //   DiffuseVelocity      velocity_in, prev.xyz -> velocity_out: one Jacobi sweep (host: gs_iterations times)
 //                        +B(Velocity)
 //   ProjectStep1         velocity -> prev = (0, div, prev.z, prev.w) (own cell, in place) +B(Div); p = 0 everywhere,
-//                        so B(P) would change nothing; fixed: also divergence = div, pressure = 0
+//                        so B(P) would change nothing; fixed: also divergence = div, pressure = 0, and with
+//                        write_prev = 0 (a step's first projection: the copy of the velocity after it overwrites
+//                        prev.xyz) prev left alone, by step 3 too
 //   ProjectStep2         book: prev_in -> prev_out, fixed: pressure_in, divergence -> pressure_out: one Jacobi sweep
 //                        of the Poisson equation for p (gs_iterations) +B(P)
 //   ProjectStep2Rows     the same sweep (fixed, w % 4 == 0) in strips of 4 x 1 x ROWS cells along z: what the host
@@ -40,7 +43,11 @@
 //   SwapDensity          prev.w = density
 //   AdvectDensity        velocity, prev.w -> density: back-trace by the current velocity +B(Density)
 //   AdvectDensityFromExt  source.xyz, prev.w -> density: back-trace by the source (density_only) +B(Density)
-//   Draw                 velocity, density -> solver = (u, v, w, density)
+//   Draw                 velocity, density -> solver = (u, v, w, density); the host runs it once the solver is read
+//                        (state(), solver_field()): nothing in a step reads it
+//   DrawVolume           velocity, density -> volume, maxima: the view's packed copy (not in the book; runs when
+//                        the view asks, Simulation.draw_volume): the shown field as half floats, max density
+//                        and max speed
 //   the rules on their own (Simulation.set_boundary_*; step() applies them inside the kernels above):
 //   SetBoundaryDensity   density
 //   SetBoundaryDiv       the divergence: prev.y, and fixed's divergence field between ProjectStep1 and ProjectStep3
@@ -78,7 +85,7 @@
 // Helpers are always inlined: PoCL keeps a large helper that is called more than once as a call per work-item.
 #define INLINE inline __attribute__((always_inline))
 
-// One work-item per cell; padding items of the rounded-up global size leave at once (no kernel has a barrier).
+// One work-item per cell; padding items of the rounded-up global size leave at once (no barrier in its kernels).
 #define CELL_OR_RETURN(w, h, d)                                                                    \
     const int x = get_global_id(0), y = get_global_id(1), z = get_global_id(2);                    \
     if (x >= (w) || y >= (h) || z >= (d)) return;                                                  \
@@ -338,13 +345,14 @@ INLINE float divergence_at(const __global float4* velocity, int x, int y, int z,
 }
 
 // fixed: the divergence and p = 0 also go to their own float fields, which the sweeps read (12 bytes per cell, not
-// the 32 of a float4 read and write); ProjectStep3 writes the solved p back into prev.x.
+// the 32 of a float4 read and write); ProjectStep3 writes the solved p back into prev.x. write_prev = 0 leaves prev
+// alone in both (the host's first projection of a step: SwapVelocity overwrites prev.xyz before anything reads it).
 __kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
 #if BOOK_VARIANT
 void ProjectStep1(const __global float4* velocity, __global float4* prev, int w, int h, int d) {
 #else
 void ProjectStep1(const __global float4* velocity, __global float4* prev, __global float* divergence,
-                  __global float* pressure, int w, int h, int d) {
+                  __global float* pressure, int w, int h, int d, int write_prev) {
 #endif
     const int4 n = (int4)(w, h, d, 0);
     int c[3] = {get_global_id(0), get_global_id(1), get_global_id(2)};
@@ -359,8 +367,13 @@ void ProjectStep1(const __global float4* velocity, __global float4* prev, __glob
         div = divergence_at(velocity, c[0], c[1], c[2], n);
     }
     const int id = cell_of(c, n);
-    const float4 p = prev[id];
-    prev[id] = (float4)(0.0f, div, p.z, p.w);
+#if BOOK_VARIANT
+    const bool write_prev = true;  // the book's sweeps solve in prev
+#endif
+    if (write_prev) {
+        const float4 p = prev[id];
+        prev[id] = (float4)(0.0f, div, p.z, p.w);
+    }
 #if !BOOK_VARIANT
     divergence[id] = div;
     pressure[id] = 0.0f;
@@ -472,14 +485,14 @@ void ProjectStep3(__global float4* velocity, const __global float4* prev, int w,
 }
 #else
 void ProjectStep3(__global float4* velocity, __global float4* prev, const __global float* pressure, int w, int h,
-                  int d) {
+                  int d, int write_prev) {
     CELL_OR_RETURN(w, h, d)
     float4 v = velocity[id];
     v.x -= 0.5f * (ld(pressure, x + 1, y, z, n, false) - ld(pressure, x - 1, y, z, n, false)) * (float)w;
     v.y -= 0.5f * (ld(pressure, x, y + 1, z, n, false) - ld(pressure, x, y - 1, z, n, false)) * (float)h;
     v.z -= 0.5f * (ld(pressure, x, y, z + 1, n, false) - ld(pressure, x, y, z - 1, n, false)) * (float)d;
     velocity[id] = v;
-    prev[id].x = pressure[id];
+    if (write_prev) prev[id].x = pressure[id];
 }
 #endif
 
@@ -639,6 +652,47 @@ void Draw(const __global float4* velocity, const __global float* density, __glob
           int h, int d) {
     CELL_OR_RETURN(w, h, d)
     solver[id] = (float4)(velocity[id].xyz, density[id]);
+}
+
+// Not in the book: what the ray-marching view samples, 2 bytes a cell where Draw's solver has 16, so that a frame
+// moves 8x fewer bytes to the host and to GL. volume = the shown field (0: density, 1: speed |(u, v, w)|) as half
+// floats (vstore_half, rounded to nearest; clamped to half's range, where a float beyond it would turn inf); maxima =
+// the largest density and speed of the grid (Draw's values: solver.w and |solver.xyz|), as ordered_int(), reduced
+// in the work-group and then by one atomic_max per group (the host fills maxima with INT_MIN before the launch).
+INLINE int ordered_int(float v) {  // an int whose order is the floats' (negative floats reversed); its own inverse
+    const int i = as_int(v);
+    return i >= 0 ? i : i ^ 0x7fffffff;
+}
+
+#define GROUP_SIZE (THREAD_X * THREAD_Y * THREAD_Z)
+#define HALF_MAX 65504.0f
+
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+void DrawVolume(const __global float4* velocity, const __global float* density, __global half* volume,
+                volatile __global int* maxima, int field, int w, int h, int d) {
+    __local int top_density[GROUP_SIZE], top_speed[GROUP_SIZE];
+    const int x = get_global_id(0), y = get_global_id(1), z = get_global_id(2);
+    const int l = (get_local_id(2) * THREAD_Y + get_local_id(1)) * THREAD_X + get_local_id(0);
+    top_density[l] = top_speed[l] = INT_MIN;  // padding items of the rounded-up global size keep these
+    if (x < w && y < h && z < d) {
+        const int id = cell(x, y, z, (int4)(w, h, d, 0));
+        const float4 v = velocity[id];
+        const float rho = density[id], speed = sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
+        vstore_half(clamp(field == 0 ? rho : speed, -HALF_MAX, HALF_MAX), id, volume);
+        top_density[l] = ordered_int(rho);
+        top_speed[l] = ordered_int(speed);
+    }
+    for (int s = 1; s < GROUP_SIZE; s *= 2) {  // item l takes l + s's maximum while l is a multiple of 2s
+        barrier(CLK_LOCAL_MEM_FENCE);
+        if (l % (2 * s) == 0 && l + s < GROUP_SIZE) {
+            top_density[l] = max(top_density[l], top_density[l + s]);
+            top_speed[l] = max(top_speed[l], top_speed[l + s]);
+        }
+    }
+    if (l == 0) {  // the last round's write is its own
+        atomic_max(&maxima[0], top_density[0]);
+        atomic_max(&maxima[1], top_speed[0]);
+    }
 }
 
 // {{{ the other boundary rules on their own (Simulation.set_boundary_*; the kernels above apply them in step())

@@ -522,6 +522,36 @@ def test_swap_and_draw_copy_exactly(runtime, seed):
     np.testing.assert_array_equal(state["solver"][..., 3], density)
 
 
+@pytest.mark.parametrize("shape", SIZES)
+@pytest.mark.parametrize("local_size", [(8, 8, 4), (4, 3, 2)])
+def test_draw_volume_is_the_shown_field_in_half_floats_and_its_maxima(runtime, shape, local_size, seed):
+    """DrawVolume (the view's upload): Draw's density or speed rounded to half floats, and the grid's largest density
+    and speed reduced on the device, as numpy has them from solver. The largest cell is put first, last and in the
+    middle, all densities negative (the ordered ints), in groups of a power of two and of 24 items."""
+    rng = np.random.default_rng(seed)
+    w, h, d = shape
+    sim = make(runtime, shape, local_size=local_size)
+    for where in [(0, 0, 0), (d - 1, h - 1, w - 1), (d // 2, h // 2, w // 2)]:
+        velocity, density, _ = random_fields(rng, shape)
+        density -= 2.0  # all negative: the ordered ints must order negative floats
+        density[where], velocity[where] = -0.5, 4.0
+        sim.set_fields(velocity=velocity, density=density)
+        sim.draw()
+        solver = sim.solver_field()
+        speed = np.sqrt((solver[..., :3] ** 2).sum(axis=-1))
+        volume, max_density, max_speed = sim.draw_volume("density")
+        assert volume.dtype == np.float16
+        np.testing.assert_array_equal(volume, solver[..., 3].astype(np.float16))
+        assert (max_density, max_speed) == (solver[..., 3].max(), pytest.approx(speed.max(), rel=1e-6))
+        volume, max_density_again, _ = sim.draw_volume("speed")
+        assert max_density_again == max_density
+        np.testing.assert_allclose(volume, speed.astype(np.float16), rtol=2**-10)
+    density[where] = 1e6  # past half's range: clamped to its largest value, not inf
+    sim.set_fields(density=density)
+    volume, max_density, _ = sim.draw_volume("density")
+    assert (volume[where], max_density) == (np.float16(65504), 1e6)
+
+
 def project_reference(velocity, prev, variant: str, sweeps: int):
     prev = project_step1_reference(velocity, prev, variant)
     for _ in range(sweeps):
@@ -599,6 +629,63 @@ def test_whole_steps_match_the_books_order(runtime, overrides):
     assert expected["density"].max() > 0.01
     if not sim.params.density_only:
         assert fastest * DT * (11 + 9 + 7) / 3 > 0.1, "back-traces under a tenth of a cell: a weak test"
+
+
+def book_step(sim: Simulation, dt=DT) -> None:
+    """One Update() as the book's kernels run one by one, every write made: the brush every frame, both projections
+    leaving (p, div) in prev, Draw at the end (step() skips what no later read sees)."""
+    source, p = sim.source_active(), sim.params
+    if source and not sim.external_source:
+        sim.add_source_brush3d()
+    if not p.density_only:
+        if source:
+            sim.add_source_velocity(dt)
+        sim.diffuse_velocity(dt)
+        sim.project()
+        sim.swap_velocity()
+        sim.advect_velocity(dt)
+        sim.project()
+    if source:
+        sim.add_source_density(dt)
+    sim.diffuse_density(dt)
+    sim.swap_density()
+    if p.density_only:
+        sim.advect_density_from_ext(dt, source)
+    else:
+        sim.advect_density(dt)
+    sim.draw()
+    sim.time, sim.steps = sim.time + dt, sim.steps + 1
+
+
+@pytest.mark.parametrize(
+    "overrides", [{"variant": "fixed"}, {"variant": "book"}, {"variant": "fixed", "density_only": True}]
+)
+def test_step_is_the_books_kernels_one_by_one_bit_for_bit(runtime, overrides, seed):
+    """step() leaves out writes no later read sees (the first projection's p and div in prev, a brush that writes
+    the source it holds, Draw until solver is read): the state after every frame is the one-by-one run's, bit for
+    bit, while the emitter moves, stops, starts again, and an external source comes and goes."""
+    rng = np.random.default_rng(seed)
+    args = dict(emitter_center=(0.45, 0.4, 0.55), source_radius=0.35, velocity_coef=40.0, diff=0.5, visc=0.2)
+    fast, book = (make(runtime, (12, 9, 7), **args, **overrides) for _ in range(2))
+    external = smooth_field(rng, (12, 9, 7), 4, 2.0)
+    changes = {
+        3: lambda sim: sim.update(emitter_center=(0.6, 0.3, 0.4)),
+        4: lambda sim: sim.update(source_radius=0.3),
+        5: lambda sim: sim.update(emitter=False),
+        6: lambda sim: sim.update(emitter=True),
+        7: lambda sim: sim.set_source(external),
+        8: lambda sim: sim.set_source(None),
+    }
+    for frame in range(10):
+        for sim in (fast, book):
+            changes.get(frame, lambda sim: None)(sim)
+        fast.step(DT)
+        book_step(book, DT)
+        expected = book.state()
+        for key, value in fast.state().items():
+            np.testing.assert_array_equal(value, expected[key], err_msg=f"{key} after frame {frame}")
+    assert expected["density"].max() > 0.01
+    assert np.abs(expected["velocity"]).max() > 0.1 or fast.params.density_only
 
 
 # }}}
@@ -967,6 +1054,8 @@ def test_kernels_on_oclgrind(oclgrind, variant):
     sim.step()
     sim.step()
     assert sim.state()["density"].max() > 0
+    volume, max_density, _ = sim.draw_volume("speed")  # the view's: a reduction in local memory, partial groups
+    assert max_density == sim.state()["density"].max()
     sim.update(density_only=True)
     sim.step()  # AdvectDensityFromExt
     sim.update(emitter=False)

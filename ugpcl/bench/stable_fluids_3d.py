@@ -14,10 +14,11 @@ SWEEP_BATCH = 20
 def bench(runtime, sizes=None) -> list[dict]:
     """Per grid n^3, sweep kernel (ProjectStep2 in the book's work-groups, ProjectStep2Rows in its strips) and Jacobi
     sweeps per solve: ms per step (the whole Update: 2 diffusions, 2 projections, 2 advections, the queue finished
-    after each step), cell updates/s (cells x steps/s), and one Jacobi sweep of the pressure solve (one launch, walls
-    included) in us, timed over 20 sweeps back to back and one finish as a solve runs them, as sweeps/s and cell
-    updates/s, and as the least traffic a sweep needs (stable_fluids_2d.JACOBI_BYTES_PER_CELL, what the fixed
-    variant's sweep moves; the book's float4 prev: 32) per second."""
+    after each step; Draw runs only once solver is read, which this loop does not), cell updates/s (cells x
+    steps/s), and one Jacobi sweep of the pressure solve (one launch, walls included) in us, timed over 20 sweeps
+    back to back and one finish as a solve runs them, as sweeps/s and cell updates/s, and as the least traffic a
+    sweep needs (stable_fluids_2d.JACOBI_BYTES_PER_CELL, what the fixed variant's sweep moves; the book's float4
+    prev: 32) per second."""
     sizes = sizes or ([64, 128, 256] if runtime.is_gpu else [64, 128])
     rows = []
     for n in sizes:

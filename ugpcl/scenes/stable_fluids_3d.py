@@ -34,6 +34,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
 from ..buffers import PingPong, put
@@ -64,12 +65,14 @@ KERNELS = (
     "AdvectDensity",
     "AdvectDensityFromExt",
     "Draw",
+    "DrawVolume",
     "SetBoundaryDensity",
     "SetBoundaryDiv",
     "SetBoundaryP",
 )
 """The kernels of stable_fluids_3d.cl in host call order (its header's list); the last three only for set_boundary_*.
-ProjectStep2Rows is ProjectStep2 in strips (sweep_kernel), built for the fixed variant only."""
+ProjectStep2Rows is ProjectStep2 in strips (sweep_kernel), built for the fixed variant only; DrawVolume only for the
+view (draw_volume)."""
 ROWS_PER_ITEM = 2
 """Cells along z of the 4-cell strip one work-item of ProjectStep2Rows sweeps (its ROWS define)."""
 ROWS_LOCAL = (32, 4, 1)
@@ -156,7 +159,8 @@ class Simulation(StripSweeps, BaseSimulation):
         floats = {"velocity": 4, "velocity (write)": 4, "density": 1, "density (write)": 1, "prev": 4,
                   "prev (write)": 4, "divergence": 1, "pressure": 1, "pressure (write)": 1, "source": 4,
                   "no source": 4, "solver": 4}  # the fields of _reset  # fmt: skip
-        return [Allocation(f"{name} field", cells * 4 * n, "width") for name, n in floats.items()]
+        fields = [Allocation(f"{name} field", cells * 4 * n, "width") for name, n in floats.items()]
+        return [*fields, Allocation("view volume (half floats)", cells * 2, "width")]
 
     def _reset(self) -> None:
         p, rt = self.params, self.runtime
@@ -181,7 +185,12 @@ class Simulation(StripSweeps, BaseSimulation):
         self.source = rt.zeros((*self.shape, 4), np.float32)
         self.no_source = rt.zeros((*self.shape, 4), np.float32)  # what AdvectDensityFromExt reads with no source
         self.solver = rt.zeros((*self.shape, 4), np.float32)
+        # draw_volume: the view's half-float field and the two maxima
+        self.volume = rt.zeros(self.shape, np.float16)
+        self.maxima = rt.zeros(2, np.int32)
         self.external_source = False
+        self._brush_of = None  # the emitter that source holds (add_source_brush3d), None: unknown
+        self.solver_stale = False  # solver lags velocity and density: Draw runs once it is read (_step)
         self._built_for = self._configured_for = None  # the program follows local_size and variant (_configure)
 
     @property
@@ -271,6 +280,12 @@ class Simulation(StripSweeps, BaseSimulation):
         center = cltypes.make_float4(*p.emitter_center, 0.0)
         direction = cltypes.make_float4(*p.emitter_direction, 0.0)
         self._grid("AddSourceBrush3D", self.source, *self.dims, center, direction, np.float32(p.source_radius))
+        self._brush_of = self._emitter()
+
+    def _emitter(self) -> tuple:
+        """What AddSourceBrush3D's source follows from (the grid is fixed for a Simulation's buffers)."""
+        p = self.params
+        return p.emitter_center, p.emitter_direction, p.source_radius
 
     def add_source_velocity(self, dt: float) -> None:
         """AddSourceVelocity: velocity += source.xyz*velocity_coef*dt; prev.xyz = the same."""
@@ -289,16 +304,16 @@ class Simulation(StripSweeps, BaseSimulation):
             self._grid("DiffuseVelocity", velocity.read, prev, velocity.write, *dims, dt32, visc)
             velocity.swap()
 
-    def project_step1(self) -> None:
+    def project_step1(self, write_prev: bool = True) -> None:
         """ProjectStep1: prev = (0, div, prev.z, prev.w), the walls' div copied from inside (SetBoundaryDiv's rule;
-        p = 0 everywhere, so SetBoundaryP's changes nothing). fixed: also divergence = div, pressure = 0."""
+        p = 0 everywhere, so SetBoundaryP's changes nothing). fixed: also divergence = div, pressure = 0, and with
+        ``write_prev`` False prev is left alone (the step's first projection: SwapVelocity overwrites prev.xyz)."""
         if self.params.variant == "book":
             self._grid("ProjectStep1", self.velocity.read, self.prev.read, *self.dims)
             self.solving = False
         else:
-            self._grid(
-                "ProjectStep1", self.velocity.read, self.prev.read, self.divergence, self.pressure.read, *self.dims
-            )
+            fields = self.velocity.read, self.prev.read, self.divergence, self.pressure.read
+            self._grid("ProjectStep1", *fields, *self.dims, np.int32(write_prev))
             self.solving = True
 
     def project_step2(self, sweeps: int | None = None) -> None:
@@ -313,22 +328,25 @@ class Simulation(StripSweeps, BaseSimulation):
             self._grid(kernel, p.read, p.write, *extra, *dims)
             p.swap()
 
-    def project_step3(self) -> None:
+    def project_step3(self, write_prev: bool = True) -> None:
         """ProjectStep3: velocity -= grad p (in place, as the book); SetBoundaryVelocity. fixed: p from the pressure
-        field, copied into prev.x."""
+        field, copied into prev.x unless ``write_prev`` is False."""
         self._place_p()
         if self.params.variant == "book":
             self._grid("ProjectStep3", self.velocity.read, self.prev.read, *self.dims)
         else:
-            self._grid("ProjectStep3", self.velocity.read, self.prev.read, self.pressure.read, *self.dims)
+            fields = self.velocity.read, self.prev.read, self.pressure.read
+            self._grid("ProjectStep3", *fields, *self.dims, np.int32(write_prev))
         self.solving = False
         self.set_boundary_velocity()
 
-    def project(self, sweeps: int | None = None) -> None:
-        """The book's mass conservation: ProjectStep1, ProjectStep2 (x sweeps), ProjectStep3."""
-        self.project_step1()
+    def project(self, sweeps: int | None = None, write_prev: bool = True) -> None:
+        """The book's mass conservation: ProjectStep1, ProjectStep2 (x sweeps), ProjectStep3. ``write_prev`` False
+        (fixed only; the book's sweeps solve in prev): prev keeps its values, for a caller that overwrites prev.xyz
+        next, as the step's SwapVelocity does (its p and div there are never read)."""
+        self.project_step1(write_prev)
         self.project_step2(sweeps)
-        self.project_step3()
+        self.project_step3(write_prev)
 
     def swap_velocity(self) -> None:
         """SwapVelocity: prev.xyz = velocity."""
@@ -369,8 +387,23 @@ class Simulation(StripSweeps, BaseSimulation):
         self._grid("AdvectDensityFromExt", field, self.prev.read, self.density.read, *self.dims, np.float32(dt))
 
     def draw(self) -> None:
-        """Draw: solver = (u, v, w, density)."""
+        """Draw: solver = (u, v, w, density). step() leaves it to the first read of solver (solver_stale)."""
         self._grid("Draw", self.velocity.read, self.density.read, self.solver, *self.dims)
+        self.solver_stale = False
+
+    def draw_volume(self, field: str = "density") -> tuple[np.ndarray, float, float]:
+        """DrawVolume (not in the book; the view's): the shown ``field`` ("density" or "speed", the length of the
+        velocity) as a (D, H, W) float16 array, then the largest density and speed over the grid, the values Draw
+        writes into solver. 2 bytes a cell and 8 cross to the host instead of solver's 16 a cell, into page-locked
+        copies (Runtime.read_back): the array is overwritten by the next call."""
+        rt = self.runtime
+        cl.enqueue_fill_buffer(rt.queue, self.maxima.base_data, np.int32(np.iinfo(np.int32).min), 0, self.maxima.nbytes)
+        which = np.int32(("density", "speed").index(field))
+        self._grid("DrawVolume", self.velocity.read, self.density.read, self.volume, self.maxima, which, *self.dims)
+        volume, maxima = rt.read_back(self.volume), rt.read_back(self.maxima)
+        bits = np.where(maxima >= 0, maxima, maxima ^ np.int32(0x7FFFFFFF))  # the kernel's ordered_int, its inverse
+        max_density, max_speed = bits.view(np.float32)
+        return volume, float(max_density), float(max_speed)
 
     # }}}
 
@@ -385,7 +418,7 @@ class Simulation(StripSweeps, BaseSimulation):
         if source:
             self.add_source_velocity(dt)
         self.diffuse_velocity(dt)
-        self.project()
+        self.project(write_prev=False)  # SwapVelocity overwrites the p and div it would leave in prev
         self.swap_velocity()
         self.advect_velocity(dt)
         self.project()
@@ -402,12 +435,12 @@ class Simulation(StripSweeps, BaseSimulation):
 
     def _step(self, dt: float) -> None:
         source = self.source_active()
-        if source and not self.external_source:
-            self.add_source_brush3d()
+        if source and not self.external_source and self._brush_of != self._emitter():
+            self.add_source_brush3d()  # the same emitter writes the same source: only when it changed
         if not self.params.density_only:
             self.velocity_step(dt, source)
         self.density_step(dt, source)
-        self.draw()
+        self.solver_stale = True  # Draw, once solver is read: nothing in a step reads it
 
     # {{{ state
 
@@ -421,6 +454,7 @@ class Simulation(StripSweeps, BaseSimulation):
         if source.shape != (*self.shape, 4):
             raise ValueError(f"source must have shape {(*self.shape, 4)}, got {source.shape}")
         self.source.set(np.ascontiguousarray(source))
+        self._brush_of = None  # the emitter's source is gone
         self.external_source = True
 
     def set_fields(self, velocity=None, density=None, prev=None) -> None:
@@ -436,10 +470,15 @@ class Simulation(StripSweeps, BaseSimulation):
             self.solving = False  # p = prev.x (a projection goes on from it: _place_p)
 
     def solver_field(self) -> np.ndarray:
-        """The Draw output (D, H, W, 4) = (u, v, w, density): what the view renders."""
+        """The Draw output (D, H, W, 4) = (u, v, w, density), drawn first if a step left it stale (the view reads
+        the same values through draw_volume)."""
+        if self.solver_stale:
+            self.draw()
         return self.solver.get()
 
     def state(self) -> dict[str, np.ndarray]:
+        if self.solver_stale:
+            self.draw()
         velocity = self.velocity.read.get()[..., :3]
         prev = self.prev.read.get()
         if self.solving:  # mid-projection (fixed): prev as the book's would be, p in x
@@ -461,7 +500,9 @@ class Simulation(StripSweeps, BaseSimulation):
         put(self.prev.read, state["prev"], "prev")
         self.solving = False  # state() put p into prev.x
         put(self.solver, state["solver"], "solver")
+        self.solver_stale = False
         put(self.source, state["source"], "source")
+        self._brush_of = None  # whatever source the run had
 
     def stats(self) -> dict:
         state = self.state()

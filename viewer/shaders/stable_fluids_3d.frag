@@ -1,11 +1,14 @@
 #version 430 core
-// Stable fluids 3D (vol.1 ch.4; no book shader: Solver3D has no renderer). The solver volume (u, v, w, density) is
-// drawn inside a box centred on the origin, either ray-marched front to back (alpha = 1 - exp(-k * value * step),
-// white smoke lit by one shadow ray towards the light) or as one axis-aligned slice.
+// Stable fluids 3D (vol.1 ch.4; no book shader: Solver3D has no renderer). The shown field of the solver volume
+// (density, or the speed |(u, v, w)|, one half float a cell: Simulation.draw_volume) is drawn inside a box centred
+// on the origin, either ray-marched front to back (alpha = 1 - exp(-k * value * step), white smoke lit by one shadow
+// ray towards the light) or as one axis-aligned slice.
 in vec2 v_ndc;
 out vec4 f_color;
 
-uniform sampler3D solver;        // RGBA32F, linear filter: (u, v, w, density); texel centres at (i + 0.5) / n
+uniform sampler3D volume;        // R16F, linear filter: density or speed; texel centres at (i + 0.5) / n
+                                 // (speed: |v| per cell, filtered; where the velocity turns within a cell a
+                                 // little above the length of the filtered velocity)
 uniform mat4 m_inv_view_proj;    // clip -> scene coordinates
 uniform vec3 eye;                // camera position, scene coordinates
 uniform vec3 box_size;           // world size of the grid (largest edge 1)
@@ -24,10 +27,7 @@ const int SHADOW_STEPS = 8;
 const vec3 SMOKE = vec3(0.95);
 const float AMBIENT = 0.55;
 
-float value_at(vec3 uvw) {
-    vec4 s = texture(solver, uvw);
-    return field == 0 ? s.w : length(s.xyz) * value_scale;
-}
+float value_at(vec3 uvw) { return texture(volume, uvw).r * value_scale; }
 
 vec3 heat(float t) {  // black-body-like ramp for speeds: blue -> red -> yellow -> white
     t = clamp(t, 0.0, 1.0);
