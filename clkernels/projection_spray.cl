@@ -5,18 +5,25 @@
 // Host: ugpcl/scenes/projection_spray.py (Simulation).
 // Kernels, in host call order per frame:
 //   1. SprayDepthClear  depth (D x D uint, float bits) := range: the spray's distance map, cleared to its far plane
-//   2. SprayDepth       world triangles -> depth: one work-item per triangle rasterises its bounding box of depth
-//                       pixels, casts each pixel's ray exactly against the triangle and keeps the nearest distance
-//                       with atomic_min (the sample renders a distance shader into an RFloat target)
+//   2. SprayDepthBoxes  world triangles -> boxes: each triangle's bounding box of depth pixels (int4 x0, y0, x1, y1;
+//                       empty when it misses the map), read back for the host to list (triangle, block) pairs
+//   3. SprayDepth       world triangles, boxes, pairs -> depth: one work-item per listed (triangle, block) pair casts
+//                       the ray of each pixel of the DEPTH_BLOCK x DEPTH_BLOCK block inside the triangle's box
+//                       exactly against the triangle and keeps the nearest distance with atomic_min (the sample
+//                       renders a distance shader into an RFloat target)
+//      SprayDepth_serial  the same map, one work-item per triangle looping over its whole box: the plain form, and
+//                       the tests' reference (a big triangle is ~10^6 pixels in series: not used by the scene)
 //   then, for each drawable whose tiles the spray can reach, over those tiles only:
-//   3. SprayDraw / SprayGuide  pos_tex, nrm_tex, shape, depth -> paint (in place; pass 0 of the sample, while
+//   4. SprayDraw / SprayGuide  pos_tex, nrm_tex, shape, depth -> paint (in place; pass 0 of the sample, while
 //                       painting): the texel lerps toward the spray colour by shape * occlusion * cos(incidence) *
 //                       distance falloff * dt * emission; or -> guide (cleared by the host; pass 1, while not
 //                       painting): the same footprint as a preview
-//   4. EdgeThicken      paint -> canvas (guide -> guide canvas): texels outside every island take a bilinear
+//   5. EdgeThicken      paint -> canvas (guide -> guide canvas): texels outside every island take a bilinear
 //                       sample from inside the nearest one, edge_texels away ("Hidden/EdgeThicken")
+//   then, for the viewer, of each texture that changed since it last looked:
+//   6. CanvasToRGBA8    canvas or guide canvas -> rgba8 (uchar4 per texel): 8-bit colour, a quarter of the bytes
 // Build defines: none. Texture tiles are TILE x TILE texels (host: TILE); a launch covers the tiles listed in
-// `tiles`, one work-item per texel of each.
+// `tiles`, one work-item per texel of each. Depth blocks are DEPTH_BLOCK x DEPTH_BLOCK pixels (host: DEPTH_BLOCK).
 // Atomics: atomic_min on the depth map's uint bits (IEEE order equals uint order for floats >= 0).
 // Races: none. Every texel kernel reads and writes only its own texel of the texture it writes; EdgeThicken reads
 // `src` and writes another buffer.
@@ -29,6 +36,7 @@
 #include "image.h"  // image_index, image_load_clamped, image_sample_bilinear (GL row order, clamped bilinear)
 
 #define TILE 16
+#define DEPTH_BLOCK 16
 
 // Offsets into the per-drawable uniform block (`u`, flat float32, host: UNIFORM_* in the scene module).
 #define U_O2W 0         // object -> world, row-major 4x4
@@ -105,56 +113,102 @@ __kernel void SprayDepthClear(__global uint* depth, int count, float range) {
     if (i < count) depth[i] = as_uint(range);
 }
 
-// Spray ray through depth pixel (i, j): origin + t (forward + sx right + sy up), sx, sy = (2 uv - 1) tan(fov / 2).
-__kernel void SprayDepth(__global const float4* triangles, int count, volatile __global uint* depth, int depth_res,
-                         float4 origin, float4 right, float4 up, float4 forward, float tan_half_fov, float range) {
-    const int k = get_global_id(0);
-    if (k >= count) return;
-    const float3 a = triangles[3 * k].xyz, b = triangles[3 * k + 1].xyz, c = triangles[3 * k + 2].xyz;
-    // Bounding box of the projected corners; a corner at or behind the spray's plane: the whole map.
-    int x0 = 0, y0 = 0, x1 = depth_res - 1, y1 = depth_res - 1;
+// The depth kernels' last arguments: the map's resolution D, the spray's origin and unit axes, tan of half its
+// field of view, its range (host: Simulation.depth_frame).
+#define DEPTH_ARGS                                                                                                 \
+    int depth_res, float4 origin, float4 right, float4 up, float4 forward, float tan_half_fov, float range
+
+// Bounding box (x0, y0, x1, y1, inclusive) of the depth pixels whose centre (i + 0.5) / D lies in the box of the
+// triangle's projected corners, one pixel of margin for rounding; a corner at or behind the spray's plane: the whole
+// map. False when the triangle's box misses the map.
+inline bool depth_box(float3 a, float3 b, float3 c, int depth_res, float3 origin, float3 right, float3 up,
+                      float3 forward, float tan_half_fov, int4* box) {
+    *box = (int4)(0, 0, depth_res - 1, depth_res - 1);
     const float3 corners[3] = {a, b, c};
     float2 lo = (float2)(INFINITY), hi = (float2)(-INFINITY);
-    bool projectable = true;
     for (int m = 0; m < 3; ++m) {
-        const float3 d = corners[m] - origin.xyz;
-        const float z = dot(d, forward.xyz);
-        if (!(z > 1e-6f)) {
-            projectable = false;
-            break;
-        }
-        const float2 s = (float2)(dot(d, right.xyz), dot(d, up.xyz)) / (z * tan_half_fov) * 0.5f + 0.5f;
+        const float3 d = corners[m] - origin;
+        const float z = dot(d, forward);
+        if (!(z > 1e-6f)) return true;
+        const float2 s = (float2)(dot(d, right), dot(d, up)) / (z * tan_half_fov) * 0.5f + 0.5f;
         lo = fmin(lo, s);
         hi = fmax(hi, s);
     }
-    if (projectable) {
-        if (hi.x < 0.0f || hi.y < 0.0f || lo.x > 1.0f || lo.y > 1.0f) return;
-        // pixels whose centre (i + 0.5) / D lies in [lo, hi], one pixel of margin for rounding
-        x0 = max(0, (int)floor(lo.x * depth_res - 0.5f) - 1);
-        y0 = max(0, (int)floor(lo.y * depth_res - 0.5f) - 1);
-        x1 = min(depth_res - 1, (int)ceil(hi.x * depth_res - 0.5f) + 1);
-        y1 = min(depth_res - 1, (int)ceil(hi.y * depth_res - 0.5f) + 1);
+    if (hi.x < 0.0f || hi.y < 0.0f || lo.x > 1.0f || lo.y > 1.0f) return false;
+    box->x = max(0, (int)floor(lo.x * depth_res - 0.5f) - 1);
+    box->y = max(0, (int)floor(lo.y * depth_res - 0.5f) - 1);
+    box->z = min(depth_res - 1, (int)ceil(hi.x * depth_res - 0.5f) + 1);
+    box->w = min(depth_res - 1, (int)ceil(hi.y * depth_res - 0.5f) + 1);
+    return true;
+}
+
+// Spray ray through depth pixel (i, j): origin + t (forward + sx right + sy up), sx, sy = (2 uv - 1) tan(fov / 2),
+// cast against the triangle (a, a + e1, a + e2), both faces (Moller-Trumbore); a hit nearer than range lowers the
+// pixel's distance.
+inline void depth_pixel(int i, int j, float3 a, float3 e1, float3 e2, volatile __global uint* depth, int depth_res,
+                        float3 origin, float3 right, float3 up, float3 forward, float tan_half_fov, float range) {
+    const float sx = (2.0f * (i + 0.5f) / depth_res - 1.0f) * tan_half_fov;
+    const float sy = (2.0f * (j + 0.5f) / depth_res - 1.0f) * tan_half_fov;
+    const float3 dir = forward + sx * right + sy * up;
+    const float3 to_origin = origin - a;
+    const float3 pv = cross(dir, e2);
+    const float det = dot(e1, pv);
+    if (fabs(det) < 1e-12f) return;
+    const float inv = 1.0f / det;
+    const float bu = dot(to_origin, pv) * inv;
+    if (bu < 0.0f || bu > 1.0f) return;
+    const float3 qv = cross(to_origin, e1);
+    const float bv = dot(dir, qv) * inv;
+    if (bv < 0.0f || bu + bv > 1.0f) return;
+    const float t = dot(e2, qv) * inv;
+    if (!(t > 0.0f)) return;
+    const float dist = t * length(dir);
+    if (dist < range) atomic_min(&depth[image_index(i, j, depth_res)], as_uint(dist));
+}
+
+// One work-item per triangle: its box, (0, 0, -1, -1) when it misses the map (no block of it is listed).
+__kernel void SprayDepthBoxes(__global const float4* triangles, int count, __global int4* boxes, DEPTH_ARGS) {
+    const int k = get_global_id(0);
+    if (k >= count) return;
+    int4 box;
+    const bool on_map = depth_box(triangles[3 * k].xyz, triangles[3 * k + 1].xyz, triangles[3 * k + 2].xyz, depth_res,
+                                  origin.xyz, right.xyz, up.xyz, forward.xyz, tan_half_fov, &box);
+    boxes[k] = on_map ? box : (int4)(0, 0, -1, -1);
+}
+
+// One work-item per (triangle, block) pair, pairs[p] = (triangle, row * blocks_x + column), over the pixels of the
+// DEPTH_BLOCK x DEPTH_BLOCK block at (column, row) * DEPTH_BLOCK that lie inside the triangle's box. The host lists
+// every block a box meets, so exactly SprayDepth_serial's pixels are cast, at most DEPTH_BLOCK^2 per work-item
+// whatever the triangle's size (SprayDepth_serial casts a triangle that covers the map in D^2 steps of one
+// work-item). A loop over the block rather than a work-item per pixel: the figure's small triangles would leave most
+// of a block's work-items idle, which costs a CPU device more than the loop costs a GPU.
+__kernel void SprayDepth(__global const float4* triangles, __global const int4* boxes, __global const int2* pairs,
+                         int pair_count, int blocks_x, volatile __global uint* depth, DEPTH_ARGS) {
+    const int p = get_global_id(0);
+    if (p >= pair_count) return;
+    const int2 pair = pairs[p];
+    const int4 box = boxes[pair.x];
+    const int x0 = (pair.y % blocks_x) * DEPTH_BLOCK, y0 = (pair.y / blocks_x) * DEPTH_BLOCK;
+    const float3 a = triangles[3 * pair.x].xyz, b = triangles[3 * pair.x + 1].xyz, c = triangles[3 * pair.x + 2].xyz;
+    for (int j = max(y0, box.y); j <= min(y0 + DEPTH_BLOCK - 1, box.w); ++j) {
+        for (int i = max(x0, box.x); i <= min(x0 + DEPTH_BLOCK - 1, box.z); ++i) {
+            depth_pixel(i, j, a, b - a, c - a, depth, depth_res, origin.xyz, right.xyz, up.xyz, forward.xyz,
+                        tan_half_fov, range);
+        }
     }
-    const float3 e1 = b - a, e2 = c - a, to_origin = origin.xyz - a;
-    for (int j = y0; j <= y1; ++j) {
-        for (int i = x0; i <= x1; ++i) {
-            const float sx = (2.0f * (i + 0.5f) / depth_res - 1.0f) * tan_half_fov;
-            const float sy = (2.0f * (j + 0.5f) / depth_res - 1.0f) * tan_half_fov;
-            const float3 dir = forward.xyz + sx * right.xyz + sy * up.xyz;
-            // Moller-Trumbore, both faces
-            const float3 pv = cross(dir, e2);
-            const float det = dot(e1, pv);
-            if (fabs(det) < 1e-12f) continue;
-            const float inv = 1.0f / det;
-            const float bu = dot(to_origin, pv) * inv;
-            if (bu < 0.0f || bu > 1.0f) continue;
-            const float3 qv = cross(to_origin, e1);
-            const float bv = dot(dir, qv) * inv;
-            if (bv < 0.0f || bu + bv > 1.0f) continue;
-            const float t = dot(e2, qv) * inv;
-            if (!(t > 0.0f)) continue;
-            const float dist = t * length(dir);
-            if (dist < range) atomic_min(&depth[image_index(i, j, depth_res)], as_uint(dist));
+}
+
+__kernel void SprayDepth_serial(__global const float4* triangles, int count, volatile __global uint* depth,
+                                DEPTH_ARGS) {
+    const int k = get_global_id(0);
+    if (k >= count) return;
+    const float3 a = triangles[3 * k].xyz, b = triangles[3 * k + 1].xyz, c = triangles[3 * k + 2].xyz;
+    int4 box;
+    if (!depth_box(a, b, c, depth_res, origin.xyz, right.xyz, up.xyz, forward.xyz, tan_half_fov, &box)) return;
+    for (int j = box.y; j <= box.w; ++j) {
+        for (int i = box.x; i <= box.z; ++i) {
+            depth_pixel(i, j, a, b - a, c - a, depth, depth_res, origin.xyz, right.xyz, up.xyz, forward.xyz,
+                        tan_half_fov, range);
         }
     }
 }
@@ -207,4 +261,11 @@ __kernel void EdgeThicken(__global const int* tiles, int tiles_x, int tex_w, int
     }
     const float2 uv = image_uv(x, y, tex_w, tex_h) + normalize(dir) * (float2)((float)e / tex_w, (float)e / tex_h);
     dst[i] = image_sample_bilinear(src, tex_w, tex_h, uv);
+}
+
+// A texel of `src` as 8-bit colour: round(clamp(c, 0, 1) * 255), the conversion GL applies to a float written to an
+// RGBA8 texture. The view reads this back (4 bytes a texel instead of 16) and writes it straight into its texture.
+__kernel void CanvasToRGBA8(__global const float4* src, int count, __global uchar4* rgba8) {
+    const int i = get_global_id(0);
+    if (i < count) rgba8[i] = convert_uchar4_sat_rte(src[i] * 255.0f);  // _sat: clamped to [0, 255], NaN -> 0
 }

@@ -17,6 +17,7 @@ from ugpcl.geometry.projection_spray import (
     STAR_RADII,
     STENCIL_PLATE_Z,
     Drawable,
+    box_blocks,
     planar_mesh,
     spray_matrices,
     star,
@@ -24,7 +25,7 @@ from ugpcl.geometry.projection_spray import (
 from ugpcl.geometry.skinned_figure import Figure
 from ugpcl.geometry.uv_atlas import bake, per_triangle_layout, unit_cube, uv_sphere
 from ugpcl.registry import get
-from ugpcl.scenes.projection_spray import Params, Simulation
+from ugpcl.scenes.projection_spray import DEPTH_BLOCK, Params, Simulation
 
 RED = (1.0, 0.0, 0.0, 1.0)
 
@@ -430,6 +431,60 @@ def test_depth_map_of_a_wall_filling_the_frustum_is_exact_to_its_edges(runtime):
     assert np.allclose(depth, exact, rtol=1e-5), first_mismatch(depth.ravel(), exact.ravel(), 1e-5, 0)
 
 
+def serial_depth(sim: Simulation) -> np.ndarray:
+    """The depth map of the last frame's triangles by SprayDepth_serial (one work-item per triangle over its whole
+    box, the shape of work before the blocks), as uint bits."""
+    p = sim.params
+    count = sum(len(t) for t in sim.triangles)
+    depth = sim.runtime.to_device(np.full(p.depth_res**2, np.float32(p.spray_range)).view(np.uint32))
+    frame = sim.depth_frame(sim.last["pose"])
+    sim.program.kernel("SprayDepth_serial").over(count, 64, sim.world_triangles, count, depth, *frame)
+    return depth.get()
+
+
+def triangle_soup(count: int, seed: int) -> Drawable:
+    """``count`` triangles of sizes from a few depth pixels to the whole map, around the stencil preset's spray (at
+    z = -5, looking +z), some of them straddling its plane or behind it."""
+    rng = np.random.default_rng(seed)
+    centres = rng.uniform([-3, -3, -6], [3, 3, 3], (count, 1, 3))
+    vertices = (centres + rng.normal(size=(count, 3, 3)) * rng.uniform(0.02, 3.0, (count, 1, 1))).reshape(-1, 3)
+    mesh = Mesh(vertices, np.arange(3 * count).reshape(count, 3))
+    return Drawable("soup", per_triangle_layout(mesh, 128, 1), rotates=False)
+
+
+@pytest.mark.parametrize(
+    "preset, depth_res", [("cube_sphere", 64), ("cube_sphere", 61), ("stencil", 67), ("figure", 40), ("soup", 53)]
+)
+def test_blocked_depth_map_is_the_serial_kernels_bit_for_bit(runtime, preset, depth_res):
+    """SprayDepth (one work-item per pixel of each (triangle, block) pair) against SprayDepth_serial: the same
+    pixels cast with the same arithmetic, so the same float bits; sizes that are not a multiple of DEPTH_BLOCK."""
+    scene = "stencil" if preset == "soup" else preset
+    figure = {"tex": 512, "edge_texels": 2, "aim_radius": 0.35}  # the figure scene's: its layout needs 512 texels
+    sizes = figure if preset == "figure" else {"tex": 32}
+    sim = make(runtime, preset=scene, depth_res=depth_res, aim="orbit", **sizes)
+    if preset == "soup":
+        sim.set_drawables([triangle_soup(200, seed=1)])
+    for _ in range(3):
+        sim.step(0.3)
+        blocked = sim.depth.get()
+        np.testing.assert_array_equal(blocked, serial_depth(sim))
+        assert (blocked != np.float32(sim.params.spray_range).view(np.uint32)).mean() > 0.05  # the map holds hits
+
+
+def test_box_blocks_lists_each_block_a_box_meets_once():
+    rng = np.random.default_rng(0)
+    lo = rng.integers(0, 70, (50, 2))
+    boxes = np.concatenate([lo, lo + rng.integers(-3, 40, (50, 2))], axis=1).clip(0, 69).astype(np.int32)
+    pairs = box_blocks(boxes, DEPTH_BLOCK, 5)  # a 70-pixel map: 5 blocks a row
+    expected = set()
+    for k, (x0, y0, x1, y1) in enumerate(boxes):
+        for y in range(y0, y1 + 1):
+            for x in range(x0, x1 + 1):
+                expected.add((k, (y // DEPTH_BLOCK) * 5 + x // DEPTH_BLOCK))
+    assert len(pairs) == len(expected) == len({tuple(pair) for pair in pairs})
+    assert {tuple(pair) for pair in pairs} == expected
+
+
 # }}}
 
 # {{{ guide, parameters
@@ -474,6 +529,42 @@ def test_figure_texture_too_small_is_a_param_error(runtime):
 # }}}
 
 # {{{ view and CLI
+
+
+def test_texture_rgba8_is_the_canvas_rounded_to_8_bits(runtime):
+    sim = make(runtime, tex=24, depth_res=16)
+    values = np.linspace(-0.1, 1.1, 24 * 24 * 4, dtype=np.float32).reshape(24, 24, 4)
+    values[0, :4] = (np.arange(16, dtype=np.float32).reshape(4, 4) + 0.5) / 255  # halfway: to even, as np.round
+    values[1, 0] = (np.nan, np.inf, -np.inf, 1.0)
+    sim.textures[1]["guide_canvas"].set(values)
+    got = sim.texture_rgba8(1, "guide_canvas")
+    expected = np.round(np.clip(np.nan_to_num(values, nan=0.0), 0, 1) * np.float32(255)).astype(np.uint8)
+    np.testing.assert_array_equal(got, expected)
+
+
+@pytest.mark.gl
+def test_view_uploads_only_the_textures_that_changed(runtime, gl):
+    from ugpcl.viewer.views import create_view
+
+    scene = get("projection_spray")
+    sim = scene.create(runtime, tex=32, depth_res=32)
+    view = create_view(scene, gl, sim)
+    written = []
+    convert = sim.texture_rgba8
+    sim.texture_rgba8 = lambda k, name: written.append((k, name)) or convert(k, name)
+    view.upload()
+    assert sorted(written) == [(0, "canvas"), (0, "guide_canvas"), (1, "canvas"), (1, "guide_canvas")]
+    for painting, expected in ((True, "canvas"), (False, "guide_canvas"), (False, "guide_canvas")):
+        written.clear()
+        sim.update(painting=painting)
+        sim.step()
+        view.upload()
+        assert sorted(written) == [(0, expected), (1, expected)], (painting, written)
+    written.clear()
+    view.upload()  # nothing new
+    sim.clear()
+    view.upload()
+    assert sorted(written) == [(0, "canvas"), (1, "canvas")]
 
 
 @pytest.mark.gl
@@ -561,8 +652,11 @@ def test_cli_run_writes_the_spec_arrays(runtime, capsys, tmp_path):
 def test_kernels_on_oclgrind(oclgrind):
     for skip in (True, False):
         sim = Simulation(oclgrind, Params(tex=16, depth_res=16, shape_res=16, skip_tiles=skip), seed=0)
-        sim.step()  # SprayDepthClear, SprayDepth, SprayDraw, EdgeThicken
+        sim.step()  # SprayDepthClear, SprayDepthBoxes, SprayDepth, SprayDraw, EdgeThicken
+        np.testing.assert_array_equal(sim.depth.get(), serial_depth(sim))  # SprayDepth_serial
         sim.update(painting=False)
         sim.step()  # SprayGuide, EdgeThicken on the guide
         state = sim.state()
         assert np.isfinite(state["canvas"]).all() and (state["paint"][..., :3] > 0).any()
+        rgba8 = sim.texture_rgba8(0, "canvas")  # CanvasToRGBA8
+        np.testing.assert_array_equal(rgba8, np.round(np.clip(state["canvas"][0], 0, 1) * np.float32(255)))

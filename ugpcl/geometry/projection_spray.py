@@ -1,6 +1,7 @@
 """Projection spray's host geometry (vol.1 ch.10; docs/chapters/10-projection-spray.md): the presets' paintable
 objects (the sample's cube and sphere, the stencil plate with its star cut-out and the wall behind it, the procedural
-figure), the spray's shape texture (simplex noise on its rim) and its pose and projection matrices."""
+figure), the spray's shape texture (simplex noise on its rim), its pose and projection matrices, and the blocks of
+its depth map that the triangles' boxes cover."""
 
 from __future__ import annotations
 
@@ -183,6 +184,20 @@ def look_rotation(position, target) -> np.ndarray:
     m = np.identity(4)
     m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, np.cross(forward, right), forward, position
     return m
+
+
+def box_blocks(boxes: np.ndarray, block: int, blocks_x: int) -> np.ndarray:
+    """(n, 2) int32 (item, block) pairs: every ``block`` x ``block`` cell of a grid ``blocks_x`` cells wide that meets
+    box k = (x0, y0, x1, y1) (inclusive pixel bounds; x1 < x0 or y1 < y0: empty), block = by * blocks_x + bx, in
+    item order and row-major within an item."""
+    lo, hi = boxes[:, :2] // block, boxes[:, 2:] // block
+    size = np.where((boxes[:, 2:] >= boxes[:, :2]).all(axis=1)[:, None], hi - lo + 1, 0)  # (n, 2) blocks in x, y
+    counts = size[:, 0] * size[:, 1]
+    item = np.repeat(np.arange(len(boxes)), counts)
+    within = np.arange(len(item)) - np.repeat(np.cumsum(counts) - counts, counts)
+    x = lo[item, 0] + within % size[item, 0]
+    y = lo[item, 1] + within // size[item, 0]
+    return np.stack([item, y * blocks_x + x], axis=1).astype(np.int32)
 
 
 def spray_matrices(pose: np.ndarray, angle: float, spray_range: float) -> tuple[np.ndarray, np.ndarray]:

@@ -6,7 +6,8 @@ paint layout (``ugpcl.geometry.uv_atlas``) baked once into per-texel position an
 
 1. the spray's pose and colour (``aim``: orbit around the objects, fixed, or the point under the mouse) and the
    drawables' transforms (the sample's Rotater spins them about +y);
-2. ``SprayDepthClear`` + ``SprayDepth``: the spray's distance map, every drawable's triangles cast exactly;
+2. ``SprayDepthClear`` + ``SprayDepthBoxes`` + ``SprayDepth``: the spray's distance map, every drawable's
+   triangles cast exactly, one work-item per 16 x 16 block of each triangle's pixel box (the sample rasterises);
 3. for every drawable, over the texture tiles the spray cone can reach (ugpcl's, "beyond the book"): ``SprayDraw``
    while painting (``painting``), else ``SprayGuide`` (the footprint preview, cleared every frame);
 4. ``EdgeThicken``: the paint (or guide) dilated into the layout's gutters, on those tiles and their neighbours.
@@ -33,6 +34,7 @@ from ..geometry.projection_spray import (
     PRESETS,
     SHAPE_BLOCK_TEXELS,
     Drawable,
+    box_blocks,
     look_rotation,
     preset_drawables,
     spray_matrices,
@@ -47,6 +49,9 @@ from ..scene import Simulation as BaseSimulation
 
 TILE = 16
 """Texture tiles are TILE x TILE texels (projection_spray.cl: TILE): the unit of tile skipping."""
+DEPTH_BLOCK = 16
+"""A SprayDepth work-item casts the pixels of one DEPTH_BLOCK x DEPTH_BLOCK block of a triangle's box
+(projection_spray.cl: DEPTH_BLOCK)."""
 HUE_RATE = 0.1
 """Hue turns per second while the colour cycles (the sample: HSV((time * 0.1) mod 1, 1, 1))."""
 UNIFORM_FLOATS = 64
@@ -123,6 +128,7 @@ class Simulation(BaseSimulation):
         self.program = rt.program("projection_spray")
         self.shape = rt.to_device(spray_shape(p.shape_res, p.shape_edge, p.shape_freq, p.shape_amp))
         self.depth = rt.zeros(p.depth_res * p.depth_res, np.uint32)
+        self.rgba8 = rt.zeros(p.tex * p.tex, np.uint32)  # a texture in 8-bit colour, for the view (CanvasToRGBA8)
         self.target = np.asarray(PRESETS[p.preset].aim_center, float)  # aim=mouse: the point under the mouse
         self.records: deque = deque(maxlen=RECORDED_FRAMES)
         try:
@@ -151,16 +157,20 @@ class Simulation(BaseSimulation):
                     "tile_centres": centres,
                     "tile_radii": radii,
                     "pos": pos,
+                    "guide_blank": True,  # guide and guide canvas all zero: a guide frame need not clear them
                 }
             )
         self.triangles = [d.mesh.vertices[d.mesh.faces].astype(np.float64) for d in drawables]  # (F, 3, 3)
         count = sum(len(t) for t in self.triangles)
         self.world_triangles = rt.zeros((max(count, 1), 3, 4), np.float32)
+        self.depth_boxes = rt.zeros((max(count, 1), 4), np.int32)
         self.uniforms = [rt.zeros(UNIFORM_FLOATS, np.float32) for _ in drawables]
         self.all_tiles = rt.to_device(np.arange(self.tiles_x**2, dtype=np.int32))
         self.last = None  # the last frame's pose, uniforms and tiles (guide output for state())
         self.painted_last, self.tiles_last = False, 0
-        self.version = 0  # bumped whenever a texture changes: the view uploads only then
+        self.version = 0  # bumped by every frame and clear: the clock of `changed`
+        # per drawable, the version at which its canvas and its guide canvas last changed: the view uploads only those
+        self.changed = [dict.fromkeys(("canvas", "guide_canvas"), 0) for _ in drawables]
 
     @classmethod
     def allocations(cls, params: Params) -> list:
@@ -169,6 +179,7 @@ class Simulation(BaseSimulation):
             # per drawable: baked positions and normals, paint, canvas, guide and guide canvas (set_drawables)
             Allocation("texture (tex x tex float4)", 16 * texels, "tex", count=6 * drawables),
             Allocation("depth map", params.depth_res**2 * 4, "depth_res"),
+            Allocation("8-bit texture for the view", 4 * texels, "tex"),
             Allocation("spray shape", params.shape_res**2 * 16, "shape_res"),
             # host peaks, measured: the spray shape and its noise's float64 temporaries (360-400 bytes a texel, in
             # blocks of SHAPE_BLOCK_TEXELS)
@@ -224,31 +235,44 @@ class Simulation(BaseSimulation):
     # {{{ kernels, in the sample's order
 
     def spray_depth(self, pose: np.ndarray, o2w: np.ndarray) -> None:
-        """SprayDepthClear + SprayDepth: the spray's distance map of every drawable's triangles."""
-        p = self.params
+        """SprayDepthClear + SprayDepthBoxes + SprayDepth: the spray's distance map of every drawable's triangles."""
+        p, queue = self.params, self.runtime.queue
         world = [(t @ m[:3, :3].T + m[:3, 3]) for t, m in zip(self.triangles, o2w, strict=True)]
         count = sum(len(w) for w in world)
         if count:
             packed = np.zeros((count, 3, 4), np.float32)
             packed[..., :3] = np.concatenate(world)
-            cl.enqueue_copy(self.runtime.queue, self.world_triangles.data, packed)
+            cl.enqueue_copy(queue, self.world_triangles.data, packed)
         n = p.depth_res * p.depth_res
         self.program.kernel("SprayDepthClear").over(n, 256, self.depth, np.int32(n), np.float32(p.spray_range))
-        axes = [cltypes.make_float4(*pose[:3, k], 0.0) for k in range(4)]  # right, up, forward, origin
+        frame = self.depth_frame(pose)
+        self.program.kernel("SprayDepthBoxes").over(count, 64, self.world_triangles, count, self.depth_boxes, *frame)
+        boxes = np.empty((count, 4), np.int32)
+        if count:
+            cl.enqueue_copy(queue, boxes, self.depth_boxes.data)
+        blocks_x = -(-p.depth_res // DEPTH_BLOCK)
+        pairs = box_blocks(boxes, DEPTH_BLOCK, blocks_x)  # (triangle, block): the work-items of SprayDepth
+        if not len(pairs):
+            return
         self.program.kernel("SprayDepth").over(
-            count,
+            len(pairs),
             64,
             self.world_triangles,
-            np.int32(count),
+            self.depth_boxes,
+            self.runtime.to_device(pairs),
+            len(pairs),
+            blocks_x,
             self.depth,
-            np.int32(p.depth_res),
-            axes[3],
-            axes[0],
-            axes[1],
-            axes[2],
-            np.float32(math.tan(math.radians(p.spray_angle) / 2)),
-            np.float32(p.spray_range),
+            *frame,
         )
+
+    def depth_frame(self, pose: np.ndarray) -> tuple:
+        """The depth kernels' last arguments (projection_spray.cl: DEPTH_ARGS): resolution, the spray's origin and
+        axes, tan of half its angle, its range."""
+        p = self.params
+        right, up, forward, origin = (cltypes.make_float4(*pose[:3, k], 0.0) for k in range(4))
+        tan_half = np.float32(math.tan(math.radians(p.spray_angle) / 2))
+        return np.int32(p.depth_res), origin, right, up, forward, tan_half, np.float32(p.spray_range)
 
     def reachable_tiles(self, k: int, pose: np.ndarray, o2w: np.ndarray) -> np.ndarray:
         """Tiles of drawable k holding a texel the spray can reach: its covered texels' bounding sphere meets the
@@ -320,6 +344,7 @@ class Simulation(BaseSimulation):
 
     def frame(self, time: float, dt: float, painting: bool) -> None:
         """One frame of the sample's DrawingManager at ``time``: pose, depth map, paint or guide, dilation."""
+        self.version += 1
         pose, aim = self.spray_pose(time)
         o2w, color = self.object_to_world(time), self.color(time)
         self.spray_depth(pose, o2w)
@@ -329,7 +354,6 @@ class Simulation(BaseSimulation):
             self._uniforms(k, pose, o2w[k], color, dt)
             self._paint_or_guide(k, pose, o2w[k], painting)
         self.painted_last = painting
-        self.version += 1
 
     def _paint_or_guide(self, k: int, pose, o2w, painting: bool) -> None:
         tex, n = self.textures[k], self.tiles_x
@@ -351,9 +375,14 @@ class Simulation(BaseSimulation):
             if spray_count:
                 self.spray_pass("SprayDraw", k, spray_tiles, spray_count)
                 self.edge_thicken(k, "paint", "canvas", dilate_tiles, dilate_count)
+                self.changed[k]["canvas"] = self.version
             return
-        for name in ("guide", "guide_canvas"):  # the sample's ClearGuid
-            cl.enqueue_fill_buffer(queue, tex[name].data, np.float32(0), 0, tex[name].nbytes)
+        if not (tex["guide_blank"] and spray_count == 0):
+            self.changed[k]["guide_canvas"] = self.version
+        if not tex["guide_blank"]:
+            for name in ("guide", "guide_canvas"):  # the sample's ClearGuid
+                cl.enqueue_fill_buffer(queue, tex[name].data, np.float32(0), 0, tex[name].nbytes)
+        tex["guide_blank"] = spray_count == 0
         if spray_count:
             self.spray_pass("SprayGuide", k, spray_tiles, spray_count)
             self.edge_thicken(k, "guide", "guide_canvas", dilate_tiles, dilate_count)
@@ -363,19 +392,20 @@ class Simulation(BaseSimulation):
         if self.last is None or not self.painted_last:
             return
         last = self.last
+        self.version += 1
         self.tiles_last = 0
         for k in range(len(self.drawables)):
             self._paint_or_guide(k, last["pose"], last["o2w"][k], painting=False)
         self.painted_last = False
-        self.version += 1
 
     def clear(self) -> None:
         """Every canvas back to the clear colour (the viewer's C key)."""
         colour = np.asarray(self.params.clear_color, np.float32)
-        for tex in self.textures:
+        self.version += 1
+        for tex, changed in zip(self.textures, self.changed, strict=True):
             for name in ("paint", "canvas"):
                 cl.enqueue_fill_buffer(self.runtime.queue, tex[name].data, colour, 0, tex[name].nbytes)
-        self.version += 1
+            changed["canvas"] = self.version
 
     # {{{ state
 
@@ -389,6 +419,14 @@ class Simulation(BaseSimulation):
     def guides(self) -> np.ndarray:
         """(n, tex, tex, 4): the dilated footprint preview of the last frame (zero while painting)."""
         return self._stack("guide_canvas")
+
+    def texture_rgba8(self, k: int, name: str) -> np.ndarray:
+        """Texture ``name`` (canvas, guide_canvas) of drawable k in 8-bit colour, (tex, tex, 4) uint8: what the view
+        shows, converted on the device (CanvasToRGBA8) so that a quarter of the float bytes are read back, into the
+        runtime's page-locked copy (``Runtime.read_back``), which the next call overwrites."""
+        tex = self.params.tex
+        self.program.kernel("CanvasToRGBA8").over(tex * tex, 256, self.textures[k][name], tex * tex, self.rgba8)
+        return self.runtime.read_back(self.rgba8).view(np.uint8).reshape(tex, tex, 4)
 
     def depth_map(self) -> np.ndarray:
         d = self.params.depth_res

@@ -79,7 +79,7 @@ class View(BaseView):
         self.show_guide, self.show_frustum, self.shade = True, True, 1.0
         self.background = BACKGROUNDS.get(sim.params.preset, BaseView.background)
         self.objects: list = []
-        self.uploaded = None
+        self.uploaded: list[dict] = []  # per drawable: the sim's version of each texture last written
 
     def make_camera(self):
         return OrbitCamera(**CAMERAS[self.sim.params.preset])
@@ -89,7 +89,7 @@ class View(BaseView):
         return OrbitCamera(**PICTURE_CAMERAS[preset]) if preset in PICTURE_CAMERAS else self.make_camera()
 
     def _build(self) -> None:
-        """Vertex arrays and float textures per drawable (again after a reset replaced them)."""
+        """Vertex arrays and 8-bit textures per drawable (again after a reset replaced them)."""
         for vao, vbo, canvas, guide in self.objects:
             for obj in (vao, vbo, canvas, guide):
                 obj.release()
@@ -101,24 +101,24 @@ class View(BaseView):
             vbo = self.ctx.buffer(data.tobytes())
             vao = self.ctx.vertex_array(self.program, [(vbo, "3f 3f 2f", "in_position", "in_normal", "in_uv")])
             textures = []
-            for _ in range(2):
-                texture = self.ctx.texture((tex, tex), 4, dtype="f4")
+            for _ in range(2):  # 8-bit colour, as the sim hands it (texture_rgba8): what the screen shows
+                texture = self.ctx.texture((tex, tex), 4, dtype="f1")
                 texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
                 texture.repeat_x = texture.repeat_y = False
                 textures.append(texture)
             self.objects.append((vao, vbo, *textures))
         self.built_for = self.sim.textures
+        self.uploaded = [{} for _ in self.objects]
 
     def upload(self) -> None:
         if not self.objects or self.built_for is not self.sim.textures:
             self._build()
-            self.uploaded = None
-        if self.uploaded != self.sim.version:
-            canvases, guides = self.sim.canvases(), self.sim.guides()
-            for (_, _, canvas, guide), c, g in zip(self.objects, canvases, guides, strict=True):
-                canvas.write(np.ascontiguousarray(c).tobytes())
-                guide.write(np.ascontiguousarray(g).tobytes())
-            self.uploaded = self.sim.version
+        for k, (_, _, canvas, guide) in enumerate(self.objects):
+            for name, texture in (("canvas", canvas), ("guide_canvas", guide)):
+                version = self.sim.changed[k][name]
+                if self.uploaded[k].get(name) != version:  # only what changed: the guide stays while painting
+                    texture.write(self.sim.texture_rgba8(k, name))
+                    self.uploaded[k][name] = version
         self.frustum.set(self.frustum_lines())
         self.frustum.color = (*self.sim.color(self.sim.time)[:3], 1.0)
 
