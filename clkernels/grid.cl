@@ -12,6 +12,8 @@
 //                           the same way one level up (the host recurses) and added back
 //   3. GridScatter          hash_keys, tickets -> scattered[cell_start[cell] + ticket]: grouped by cell
 //   4. GridSortCells        scattered -> keys: each key to its rank in its cell's run (the cell in item order)
+//   5. GridCopyItemsInCellOrder  items -> sorted_items: item records in key order (UniformGrid.copy_in_cell_order;
+//                           optional: for neighbour kernels that run one work-item per sorted slot)
 //   GridCountNeighbours     items within a radius, found through the grid (tests, and a template for chapters)
 //   GridListNeighbours      the items grid.h's neighbour loop visits around each item, in visiting order (tests)
 // Build defines: none (GRID_SCAN_GROUP, GRID_SCAN_SPAN below shape GridScanBlocks; ugpcl/grid.py mirrors them).
@@ -100,6 +102,19 @@ __kernel void GridSortCells(const __global ulong* scattered, int n, const __glob
     int rank = 0;
     for (int q = start; q < end; q++) rank += scattered[q] < key;
     keys[start + rank] = key;
+}
+
+// Record k of sorted_items = the record of the item of key k (records of record_float4s float4s; slots of empty keys
+// are left alone). A neighbour kernel that runs one work-item per sorted slot and reads its neighbours from this
+// copy reads each cell's items from consecutive addresses, the same ones for every work-item of a cell, where
+// keys[k] -> items[grid_item] gathers one scattered record per neighbour (on a GPU: a memory transaction per lane).
+__kernel void GridCopyItemsInCellOrder(const __global float4* items, int record_float4s, int n,
+                                       const __global ulong* keys, __global float4* sorted_items) {
+    const int k = get_global_id(0);
+    if (k >= n || keys[k] == GRID_EMPTY_KEY) return;
+    const __global float4* from = items + (size_t)grid_item(keys[k]) * record_float4s;
+    __global float4* to = sorted_items + (size_t)k * record_float4s;
+    for (int f = 0; f < record_float4s; f++) to[f] = from[f];
 }
 
 __kernel void GridCountNeighbours(const __global float* items, int stride, int offset, int n, float radius,

@@ -4,16 +4,21 @@
 // penalty walls, symplectic Euler.
 // Kernels, in host call order per sub-step (book: RunFluidSolver):
 //   1. DensityCS       particles_in -> density: sum over j != i within h of density_coef (h^2 - r^2)^3 (all pairs)
-//      DensityCS_grid  the same sum over the particles in the 3x3 grid cells around particle i (search=grid)
+//      DensityCS_grid  the same sum over the particles in the 3x3 grid cells around particle i (search=grid), one
+//                      work-item per particle in cell order
 //   2. PressureCS      density -> pressure: Tait, B max((rho / rho0)^7 - 1, 0)
 //   3. ForceCS         particles_in, density, pressure -> force (= acceleration): pressure + viscosity over j != i
 //      ForceCS_grid    the same sums over the 3x3 grid cells around particle i (search=grid)
 //   4. IntegrateCS     particles_in, force -> particles_out: mouse push, walls, gravity, v += dt a, x += dt v
 //   then the host swaps particles_in and particles_out.
 // Grid variant (ugpcl, search=grid; docs/chapters/05-sph-2d.md): the host sorts the particles by cell with
-// ugpcl.grid.UniformGrid (grid.h; cell size >= h) before step 1, and the *_grid kernels replace DensityCS and
-// ForceCS: the same per-pair maths over the 3x3 cells around a particle instead of all N. PressureCS and
-// IntegrateCS are shared.
+// ugpcl.grid.UniformGrid (grid.h; cell size >= h) before step 1 and copies them in that order into sorted_particles
+// (GridCopyItemsInCellOrder), and the *_grid kernels replace DensityCS and ForceCS: the same per-pair maths over the
+// 3x3 cells around a particle instead of all N. They run one work-item per sorted slot k (particle
+// P_ID = grid_item(keys[k])), so the work-items of a cell read the same neighbours from consecutive addresses, and
+// write density[P_ID], force[P_ID]: every buffer the host sees stays in particle order. The neighbours are visited
+// in grid.h's order (cells by id, a cell's particles by index), as when these kernels read particles_in through the
+// keys: the copy changes where a neighbour is read, not the sums. PressureCS and IntegrateCS are shared.
 // Build defines: none required (the book's THREAD_SIZE_X 1024 is the host's local size: no local memory, any size).
 // Every kernel guards i < n and loops over real particles only (j < n), never over the padding of the global size.
 // Differences from the book (all guard a division by zero that gives NaN there):
@@ -82,14 +87,17 @@ inline float density_term(const __global FluidParticle* particles, int N_ID, flo
     return r_sq < h_sq ? calculate_density(r_sq, h_sq, density_coef) : 0.0f;  // exclude those outside the radius
 }
 
-// Pressure and viscosity of neighbour N_ID added to the sums of particle P (book: ForceCS loop body).
-inline void force_term(ForceSums* sums, const ForceCoefs* c, const __global FluidParticle* particles,
-                       const __global float* density, const __global float* pressure, int N_ID, FluidParticle P,
-                       float P_pressure) {
-    const FluidParticle N = particles[N_ID];
+// Pressure and viscosity of the neighbour at particles[N_record] added to the sums of particle P (book: ForceCS loop
+// body). Its density and pressure are at its ID: N_record itself, or grid_item(keys[N_record]) when `particles` is
+// the grid's cell-ordered copy (keys != 0; read only for neighbours within h).
+inline void force_term(ForceSums* sums, const ForceCoefs* c, const __global FluidParticle* particles, int N_record,
+                       const __global ulong* keys, const __global float* density, const __global float* pressure,
+                       FluidParticle P, float P_pressure) {
+    const FluidParticle N = particles[N_record];
     const float2 diff = N.position - P.position;
     const float r_sq = dot(diff, diff);
     if (r_sq >= c->h_sq) return;  // outside the radius
+    const int N_ID = keys ? grid_item(keys[N_record]) : N_record;
     const float r = sqrt(r_sq);
     const float N_density = fmax(density[N_ID], c->min_density);
     if (r < MIN_PAIR_DISTANCE * c->h || N_density <= 0.0f) return;  // coincident pair / empty neighbour: no NaN
@@ -121,22 +129,22 @@ __kernel void DensityCS(const __global FluidParticle* particles_in, __global flo
     density[P_ID] = sum;
 }
 
-// The same sum over the particles in the 3x3 cells around P (cell size >= h: every neighbour within h is there).
-__kernel void DensityCS_grid(const __global FluidParticle* particles_in, __global float* density, int n, float h,
+// The same sum over the particles in the 3x3 cells around P (cell size >= h: every neighbour within h is there),
+// for the particle in sorted slot P_slot; sorted_particles = particles_in in the grid's cell order.
+__kernel void DensityCS_grid(const __global FluidParticle* sorted_particles, __global float* density, int n, float h,
                              float density_coef, float4 origin, float cell_size, int4 dims,
                              const __global ulong* keys, const __global int* cell_start, const __global int* cell_end) {
-    const int P_ID = get_global_id(0);
-    if (P_ID >= n) return;
+    const int P_slot = get_global_id(0);
+    if (P_slot >= n) return;
     const float h_sq = h * h;
-    const float2 P_position = particles_in[P_ID].position;
+    const float2 P_position = sorted_particles[P_slot].position;
     const int4 home = grid_cell_coord((float3)(P_position, 0.0f), origin.xyz, cell_size, dims);  // 2D: 3x3 cells
     float sum = 0.0f;
-    GRID_FOR_EACH_NEIGHBOUR_KEY(k, home, dims, cell_start, cell_end) {
-        const int N_ID = grid_item(keys[k]);
-        if (N_ID == P_ID) continue;  // skip own ID (book)
-        sum += density_term(particles_in, N_ID, P_position, h_sq, density_coef);
+    GRID_FOR_EACH_NEIGHBOUR_KEY(N_slot, home, dims, cell_start, cell_end) {
+        if (N_slot == P_slot) continue;  // skip own ID (book)
+        sum += density_term(sorted_particles, N_slot, P_position, h_sq, density_coef);
     }
-    density[P_ID] = sum;
+    density[grid_item(keys[P_slot])] = sum;
 }
 
 // }}}
@@ -165,27 +173,28 @@ __kernel void ForceCS(const __global FluidParticle* particles_in, const __global
     ForceSums sums = {(float2)(0.0f), (float2)(0.0f)};
     for (int N_ID = 0; N_ID < n; N_ID++) {  // all pairs, O(n^2), as the book
         if (N_ID == P_ID) continue;         // skip own ID
-        force_term(&sums, &c, particles_in, density, pressure, N_ID, P, P_pressure);
+        force_term(&sums, &c, particles_in, N_ID, 0, density, pressure, P, P_pressure);
     }
     force[P_ID] = acceleration_of(&sums, &c, viscosity, density[P_ID]);  // book: _ParticlesForceBufferWrite.acceleration
 }
 
-__kernel void ForceCS_grid(const __global FluidParticle* particles_in, const __global float* density,
+// For the particle in sorted slot P_slot, as DensityCS_grid; density and pressure are in particle order.
+__kernel void ForceCS_grid(const __global FluidParticle* sorted_particles, const __global float* density,
                            const __global float* pressure, __global float2* force, int n, float h,
                            float grad_pressure_coef, float lap_viscosity_coef, float viscosity, float min_density,
                            float4 origin, float cell_size, int4 dims, const __global ulong* keys,
                            const __global int* cell_start, const __global int* cell_end) {
-    const int P_ID = get_global_id(0);
-    if (P_ID >= n) return;
+    const int P_slot = get_global_id(0);
+    if (P_slot >= n) return;
     const ForceCoefs c = {h, h * h, grad_pressure_coef, lap_viscosity_coef, min_density};
-    const FluidParticle P = particles_in[P_ID];
+    const int P_ID = grid_item(keys[P_slot]);
+    const FluidParticle P = sorted_particles[P_slot];
     const float P_pressure = pressure[P_ID];
     const int4 home = grid_cell_coord((float3)(P.position, 0.0f), origin.xyz, cell_size, dims);  // 2D: 3x3 cells
     ForceSums sums = {(float2)(0.0f), (float2)(0.0f)};
-    GRID_FOR_EACH_NEIGHBOUR_KEY(k, home, dims, cell_start, cell_end) {
-        const int N_ID = grid_item(keys[k]);
-        if (N_ID == P_ID) continue;  // skip own ID
-        force_term(&sums, &c, particles_in, density, pressure, N_ID, P, P_pressure);
+    GRID_FOR_EACH_NEIGHBOUR_KEY(N_slot, home, dims, cell_start, cell_end) {
+        if (N_slot == P_slot) continue;  // skip own ID
+        force_term(&sums, &c, sorted_particles, N_slot, keys, density, pressure, P, P_pressure);
     }
     force[P_ID] = acceleration_of(&sums, &c, viscosity, density[P_ID]);
 }

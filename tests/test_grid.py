@@ -131,6 +131,39 @@ def test_sort_orders_keys_written_in_any_order_and_puts_empty_keys_last(runtime,
     )
 
 
+@pytest.mark.parametrize("n, record_floats", [(1, 4), (63, 8), (64, 4), (65, 8), (3001, 12)])
+def test_copy_in_cell_order_puts_each_record_at_its_key(runtime, seed, n, record_floats):
+    """Record k of the copy is the record of the item of sorted key k, whole (every float, not only the position)."""
+    rng = np.random.default_rng(seed)
+    data = rng.uniform(-1, 1, (n, record_floats)).astype(np.float32)
+    items = runtime.to_device(data)
+    grid = UniformGrid.covering(runtime, n, (-1, -1, -1), (1, 1, 1), 0.25)
+    grid.build(items, n, stride=record_floats, offset=record_floats - 4)  # the position at the record's end
+    sorted_items = runtime.empty((n, record_floats), np.float32)
+    grid.copy_in_cell_order(items, sorted_items, 4 * record_floats)
+    order = (grid.sorted_keys() & 0xFFFFFFFF).astype(np.int64)
+    np.testing.assert_array_equal(sorted_items.get(), data[order])
+
+
+def test_copy_in_cell_order_leaves_the_slots_of_empty_keys(runtime, seed):
+    """After ``sort`` with keys left out (GRID_EMPTY_KEY), their slots at the end are not written."""
+    rng = np.random.default_rng(seed)
+    n, grid = 300, UniformGrid(runtime, 300, (0, 0, 0), 1.0, (4, 4, 1))
+    keys = (rng.integers(0, grid.num_cells, n).astype(np.uint64) << np.uint64(32)) | np.arange(n, dtype=np.uint64)
+    keys[::3] = np.uint64(0xFFFFFFFFFFFFFFFF)
+    grid.hash_keys.set(keys)
+    grid.sort(n)
+    data = rng.uniform(size=(n, 4)).astype(np.float32)
+    sorted_items = runtime.to_device(np.full((n, 4), -7.0, np.float32))
+    grid.copy_in_cell_order(runtime.to_device(data), sorted_items, 16)
+    live = np.sort(keys[keys != np.uint64(0xFFFFFFFFFFFFFFFF)])
+    copied = sorted_items.get()
+    np.testing.assert_array_equal(copied[: len(live)], data[(live & 0xFFFFFFFF).astype(np.int64)])
+    assert (copied[len(live) :] == -7.0).all()
+    with pytest.raises(ValueError, match="multiple of 16, got 12"):
+        grid.copy_in_cell_order(runtime.to_device(data), sorted_items, 12)
+
+
 def test_no_items_leave_every_cell_empty(runtime):
     grid = UniformGrid(runtime, 8, (0, 0, 0), 1.0, (30, 30, 1))
     grid.build(runtime.zeros(32, np.float32), 8, stride=4)
@@ -246,6 +279,9 @@ def test_grid_kernels_on_oclgrind(oclgrind, seed):
     found, cells = list_neighbours(oclgrind, grid, items, n, 4, n + 1), item_cells(grid, n)
     for i in range(n):
         assert found[i][found[i] >= 0].tolist() == visiting_order_reference(cells, grid.dims, i), i
+    sorted_items = oclgrind.empty((n, 4), np.float32)
+    grid.copy_in_cell_order(items, sorted_items, 16)
+    np.testing.assert_array_equal(sorted_items.get(), points[(grid.sorted_keys() & 0xFFFFFFFF).astype(np.int64)])
 
 
 @pytest.mark.oclgrind
@@ -264,3 +300,8 @@ def test_counting_sort_on_oclgrind(oclgrind, seed):
     grid.hash_keys.set(keys[rng.permutation(300)])
     grid.sort(300)
     np.testing.assert_array_equal(grid.sorted_keys(), np.sort(keys))
+    sorted_items = oclgrind.empty((300, 4), np.float32)  # the empty keys' slots: not read, not written
+    data = np.column_stack([points, np.arange(300), np.zeros(300)]).astype(np.float32)
+    grid.copy_in_cell_order(oclgrind.to_device(data), sorted_items, 16)
+    live = np.sort(keys)[:200]
+    np.testing.assert_array_equal(sorted_items.get()[:200], data[(live & 0xFFFFFFFF).astype(np.int64)])

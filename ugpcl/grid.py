@@ -4,7 +4,8 @@
 prefix sum, scatter, then each cell's run in item order, so the order is the same on every run) and records each
 cell's range of sorted keys. A chapter's neighbour kernel then visits the 3x3x3 (2D: 3x3) cells around a
 position instead of all items, through grid.h's one neighbour loop (``GRID_FOR_EACH_NEIGHBOUR_KEY``):
-exact whenever ``cell_size`` >= the search radius.
+exact whenever ``cell_size`` >= the search radius. ``copy_in_cell_order()`` puts the items' records in key order,
+so that such a kernel, run over the sorted slots, reads each cell's items from consecutive addresses.
 """
 
 from __future__ import annotations
@@ -56,7 +57,9 @@ class UniformGrid:
         self.program = runtime.program("grid")
         self.hash_keys = runtime.empty(self.capacity, np.uint64)  # what the hash kernels write: item i's key at i
         self.cell_count = runtime.zeros(self.num_cells, np.int32)  # zero between builds: the scan clears it
-        self.tickets = runtime.empty(self.capacity, np.int32)  # each key's arrival number in its cell
+        # each key's arrival number in its cell; zeroed: GridScatter reads none for an item left out, yet PoCL ran it
+        # 20-60x slower while those slots held garbage
+        self.tickets = runtime.zeros(self.capacity, np.int32)
         self.scattered = runtime.empty(self.capacity, np.uint64)  # grouped by cell, each cell in arrival order
         self.keys = runtime.empty(self.capacity, np.uint64)  # sorted: what the neighbour loops read
         self.cell_start = runtime.zeros(self.num_cells, np.int32)
@@ -143,6 +146,15 @@ class UniformGrid:
         args = (self.scattered, np.int32(n), self.cell_start, self.cell_end, np.int32(self.num_cells), self.keys)
         kernel("GridSortCells").over(n, LOCAL_SIZE, *args)
         self.n = n
+
+    def copy_in_cell_order(self, items, sorted_items, record_bytes: int) -> None:
+        """Record k of ``sorted_items`` = the record of the item of sorted key k, for the n items of the last build or
+        sort (records of ``record_bytes``, a multiple of 16, from item 0 at byte 0). A neighbour kernel run over the
+        sorted slots then reads a cell's items from consecutive addresses (slot k is item ``grid_item(keys[k])``)."""
+        if record_bytes <= 0 or record_bytes % 16:
+            raise ValueError(f"grid: record_bytes must be a positive multiple of 16, got {record_bytes}")
+        args = (items, np.int32(record_bytes // 16), np.int32(self.n), self.keys, sorted_items)
+        self.program.kernel("GridCopyItemsInCellOrder").over(self.n, LOCAL_SIZE, *args)
 
     def _check_n(self, n: int) -> None:
         if not 0 <= n <= self.capacity:

@@ -7,9 +7,10 @@ running the book's RunFluidSolver: ``DensityCS`` (Poly6, self excluded) -> ``Pre
 ``IntegrateCS`` (mouse push, penalty walls, gravity, symplectic Euler) -> swap of the particle ping-pong pair.
 
 ``search=grid`` (the neighbour search the book leaves out for simplicity: vol.1 ch.5 section 5.4.3, after listing
-5.5) sorts the particles by cell with the shared ``ugpcl.grid.UniformGrid`` before each sub-step and runs
-``DensityCS_grid`` / ``ForceCS_grid``: the same per-pair maths over the 3x3 cells around each particle, equal to
-the book's all-pairs loops up to summation order.
+5.5) sorts the particles by cell with the shared ``ugpcl.grid.UniformGrid`` before each sub-step, copies them in
+that order (``GridCopyItemsInCellOrder``) and runs ``DensityCS_grid`` / ``ForceCS_grid`` over the sorted copy: the
+same per-pair maths over the 3x3 cells around each particle, equal to the book's all-pairs loops up to summation
+order; density, pressure and force stay in particle order.
 
 Differences from the book: N need not be a multiple of 1024 (the global size is padded, kernels guard i < N); the
 three divisions by zero that give NaN in the original are guarded (coincident pair, isolated particle of density 0,
@@ -171,19 +172,23 @@ class Simulation(BaseSimulation):
         self.force = rt.zeros(self.n, cltypes.float2)
         self._grid: UniformGrid | None = None
         self._grid_is_current = False
+        self.sorted_particles = None  # particles_in in the grid's cell order (search=grid), made with the grid
         self.mouse_pos, self.mouse_down = (0.0, 0.0), False  # book: screenToWorldPointPos starts at the origin
 
     # {{{ neighbour grid (search=grid)
 
     def grid(self) -> UniformGrid:
-        """The uniform grid over the box (cells >= h), sorted for the current particles_in."""
+        """The uniform grid over the box (cells >= h), sorted for the current particles_in, which
+        ``sorted_particles`` holds in the grid's cell order (what DensityCS_grid and ForceCS_grid read)."""
         p = self.params
         cell = max(p.smoothlen, math.sqrt(p.range[0] * p.range[1] / MAX_GRID_CELLS))
         if self._grid is None or self._grid.cell_size != cell:  # smoothlen is live: a new h needs new cells
             self._grid = UniformGrid.covering(self.runtime, self.n, (0.0, 0.0), p.range, cell)
+            self.sorted_particles = self.runtime.empty(self.n, PARTICLE_DTYPE)
             self._grid_is_current = False
         if not self._grid_is_current:
             self._grid.build(self.particles.read, self.n, stride=4, offset=0)  # position = floats 0, 1 of 4
+            self._grid.copy_in_cell_order(self.particles.read, self.sorted_particles, PARTICLE_DTYPE.itemsize)
             self._grid_is_current = True
         return self._grid
 
@@ -206,7 +211,8 @@ class Simulation(BaseSimulation):
             self.program.kernel("DensityCS_grid").over(
                 self.n,
                 p.local_size,
-                *args,
+                self.sorted_particles,  # particles_in in cell order
+                *args[1:],
                 *grid.geometry_args(),
                 *grid.search_args(),
             )
@@ -246,7 +252,8 @@ class Simulation(BaseSimulation):
             self.program.kernel("ForceCS_grid").over(
                 self.n,
                 p.local_size,
-                *args,
+                self.sorted_particles,  # particles_in in cell order
+                *args[1:],
                 *grid.geometry_args(),
                 *grid.search_args(),
             )
