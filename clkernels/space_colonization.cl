@@ -3,29 +3,40 @@
 // Host: ugpcl/scenes/space_colonization.py (Simulation).
 // Kernels, in host call order (reset: Setup, Seed, then one step; every step: Search .. Remove while the node pool
 // is not empty, then always Grow):
-//   1. Setup        all node slots -> node pool (Append), nodes[i].active = 0
-//   2. Seed         seeds -> nodes (Consume a slot each): t = 1, from = -1, mass = lerp(min, max, nrand)
-//   3. Search       nodes -> attractions.nearest/found: nearest active node closer than the influence distance
-//   4. Attract      attractions, nodes -> candidates (Append): node + growth * mean unit vector to its attractions,
-//                   for every active node with t >= 1 that some attraction found
-//   5. Connect      candidates (Consume), node pool (Consume) -> nodes (new child, t = 0), edges (Append)
-//   6. Remove       nodes -> attractions.active = 0 within the kill distance of any active node
-//   7. Grow         nodes.t += dT * mass, clamped to 1
+//   1. Setup         all node slots -> node pool (Append), nodes[i].active = 0
+//   2. Seed          seeds -> nodes (Consume a slot each): t = 1, from = -1, mass = lerp(min, max, nrand)
+//   3. Search        nodes -> attractions.nearest/found: nearest active node closer than the influence distance
+//   4. Attract       attractions, nodes -> candidates (Append): node + growth * mean unit vector to its attractions,
+//                    for every active node with t >= 1 that some attraction found
+//   5. ConnectCount  node pool and candidate counters -> connect_count = min(free slots, candidates), one work-item
+//                    (ugpcl: the book's host reads both counters back; here the host does not wait)
+//      Connect       candidates (Consume), node pool (Consume) -> nodes (new child, t = 0), edges (Append)
+//   6. Remove        nodes -> attractions.active = 0 within the kill distance of any active node
+//   7. Grow          nodes.t += dT * mass, clamped to 1
+// Tiled variants (ugpcl; what GPUs and Oclgrind run for search = all_pairs; same results, see below):
+//   Search_tiled    as Search, its loop over the node slots read through __local tiles
+//   Attract_tiled   as Attract, its loop over the attractions read through __local tiles
+//   Remove_tiled    as Remove, its loop over the node slots read through __local tiles
 // Uniform-grid variants (ugpcl, Params.search = grid; same results, see below):
 //   NodeGridHash   nodes -> grid keys of the active nodes (inactive slots get GRID_EMPTY_KEY and sort last);
 //                  then grid.cl's counting sort: GridCountCells, the scan, GridScatter, GridSortCells (UniformGrid.sort)
 //   Search_grid    as Search, visiting the 3x3x3 node-grid cells around the attraction (cell >= influence)
 //   Attract_grid   as Attract, visiting the 3x3x3 attraction-grid cells around the node (cell >= influence)
 //   Remove_grid    as Remove, visiting the 3x3x3 node-grid cells around the attraction (cell >= kill)
-// Build defines: none (the book's [numthreads(128,1,1)] is the host's local size).
-// Atomics: only the Append/Consume counters of pool.h (node pool, candidates, edges). The host never dispatches
-// more consumers than items: Connect runs min(free node slots, candidates) work-items.
+// Build defines: none (the book's [numthreads(128,1,1)] is the host's local size, and TILE below).
+// Atomics: only the Append/Consume counters of pool.h (node pool, candidates, edges). No more consumers than items:
+// Connect's work-items past connect_count (= min(free node slots, candidates), ConnectCount) return at once.
 // Races: none. Every kernel writes only its own record; Connect reads a parent (an active node) and writes a child
 // (a slot taken from the pool, hence inactive), so the two sets never meet. The book's Connect also rewrites the
 // parent unchanged (`_Nodes[c.node] = n1`): a no-op left out here.
 // Differences from the book: an attraction closer than MIN_DIRECTION to its node is skipped in Attract (the book
 // adds normalize(0) = NaN); `repeat_guard` (on by default; `--set repeat_guard=false` is the book) stops a node
 // emitting its last candidate again or one that sits on the node itself.
+// Tiles: the book's loops (Search, Attract, Remove) have every work-item read every node slot (attraction) from
+// global memory, one record after another, so on a GPU (few warps: one work-item per attraction or slot) each
+// iteration waits on the cache. The _tiled variants have a work-group copy TILE records at a time into __local memory,
+// each work-item then walks the tile: the same records in the same order with the same arithmetic, so the same
+// results bit for bit. CPU devices keep the book's loops, which PoCL runs faster (no work-group loop per tile).
 #include "grid.h"                // grid_neighbours: the one neighbour-cell loop of the sorted-key uniform grid
 #include "pool.h"                // pool_append, pool_append_index, pool_consume
 #include "random.h"              // nrand (the book's Random.cginc): the node masses
@@ -98,14 +109,17 @@ __kernel void Search(__global Attraction* attractions, int attraction_count, con
     attractions[idx] = attr;
 }
 
-// Sum of unit vectors from node `idx` to the attractions that chose it; false when there are none.
-inline bool attract_direction(Attraction attr, int idx, float3 position, float3* dir, int* counter) {
-    if (!(attr.active && attr.found && attr.nearest == idx)) return false;
-    const float3 to_attraction = POSITION(attr) - position;
-    if (length(to_attraction) < MIN_DIRECTION) return false;  // a seed sitting on its attraction: no direction
+// Add the unit vector from a node at `position` to an attraction (at `attraction`) that chose it.
+inline void pull_towards(float3 attraction, float3 position, float3* dir, int* counter) {
+    const float3 to_attraction = attraction - position;
+    if (length(to_attraction) < MIN_DIRECTION) return;  // a seed sitting on its attraction: no direction
     *dir += normalize(to_attraction);
     *counter += 1;
-    return true;
+}
+
+// Sum of unit vectors from node `idx` to the attractions that chose it.
+inline void attract_direction(Attraction attr, int idx, float3 position, float3* dir, int* counter) {
+    if (attr.active && attr.found && attr.nearest == idx) pull_towards(POSITION(attr), position, dir, counter);
 }
 
 // The end of Attract: the candidate at the mean direction (not renormalised: a step <= growth_distance).
@@ -137,12 +151,19 @@ __kernel void Attract(const __global Attraction* attractions, int attraction_cou
                    candidates, candidate_capacity);
 }
 
+// connect_count = min(free node slots, candidates) (book: Mathf.Min(nodesCount, CopyCount(candidates)) on the host),
+// taken from the two counters before Connect changes them.
+__kernel void ConnectCount(const __global int* node_pool_counter, const __global int* candidate_counter,
+                           __global int* connect_count) {
+    if (get_global_id(0) == 0) *connect_count = min(node_pool_counter[POOL_COUNT], candidate_counter[POOL_COUNT]);
+}
+
 __kernel void Connect(__global Node* nodes, volatile __global int* node_pool_counter, const __global int* node_pool,
                       volatile __global int* candidate_counter, const __global Candidate* candidates,
                       volatile __global int* edge_counter, __global Edge* edges, int edge_capacity,
-                      int connect_count, float mass_min, float mass_max) {
+                      const __global int* connect_count, float mass_min, float mass_max) {
     const int id = get_global_id(0);
-    if (id >= connect_count) return;  // host: connect_count = min(free node slots, candidates)
+    if (id >= *connect_count) return;  // ConnectCount: min(free node slots, candidates)
     const int slot = pool_consume(candidate_counter);  // old count - 1: the last appended candidates go first
     if (slot < 0) return;
     const Candidate c = candidates[slot];
@@ -183,6 +204,109 @@ __kernel void Grow(__global Node* nodes, int slot_count, float dT) {
     n.t = clamp(n.t + dT * n.mass, 0.0f, 1.0f);  // book: saturate; dT = dt * growthSpeed
     nodes[idx] = n;
 }
+
+// {{{ tiled variants (ugpcl): the loops of Search, Attract and Remove through __local tiles, the same results
+
+#define TILE 128  // work-group size of the tiled kernels = records per __local tile (LOCAL_SIZE on the host)
+
+// A node as the tiled loops read it: position, w = 1 for an active node, 0 for a free slot or past slot_count.
+inline float4 node_tile_entry(const __global Node* nodes, int i, int slot_count) {
+    if (i >= slot_count) return (float4)(0.0f);
+    const Node n = nodes[i];
+    return (float4)(n.px, n.py, n.pz, n.active ? 1.0f : 0.0f);
+}
+
+// An attraction as Attract_tiled reads it: its position and the node it pulls (-1: none, or not active).
+typedef struct {
+    float px, py, pz;
+    int node;
+} PullingAttraction;
+
+inline PullingAttraction pulling_attraction(const __global Attraction* attractions, int i) {
+    const Attraction a = attractions[i];
+    return (PullingAttraction){a.px, a.py, a.pz, a.active && a.found ? a.nearest : -1};
+}
+
+// Search; padding work-items (and inactive attractions) load their share of each tile and write nothing.
+__kernel __attribute__((reqd_work_group_size(TILE, 1, 1)))
+void Search_tiled(__global Attraction* attractions, int attraction_count, const __global Node* nodes, int slot_count,
+                  float influence_distance) {
+    __local float4 tile[TILE];  // node_tile_entry of slots base .. base + TILE - 1
+    const int idx = get_global_id(0), lid = get_local_id(0);
+    Attraction attr = {0};  // padding work-items: an inactive record (reading a real one races with its owner)
+    if (idx < attraction_count) attr = attractions[idx];
+    const bool mine = attr.active;  // book: inactive attractions keep their stale `found`
+    attr.found = 0u;
+    float min_dist = influence_distance;
+    for (int base = 0; base < slot_count; base += TILE) {
+        tile[lid] = node_tile_entry(nodes, base + lid, slot_count);
+        barrier(CLK_LOCAL_MEM_FENCE);  // the tile is complete before anyone reads it
+        for (int t = 0; mine && t < min(TILE, slot_count - base); t++) {
+            if (tile[t].w == 0.0f) continue;
+            const float d = length(POSITION(attr) - tile[t].xyz);
+            if (d < min_dist) {  // strict: ties keep the lower index
+                min_dist = d;
+                attr.nearest = base + t;
+                attr.found = 1u;
+            }
+        }
+        barrier(CLK_LOCAL_MEM_FENCE);  // everyone is done with the tile before the next one overwrites it
+    }
+    if (mine) attractions[idx] = attr;
+}
+
+// Attract: the attractions pulling this node summed in index order, as the book's loop does.
+__kernel __attribute__((reqd_work_group_size(TILE, 1, 1)))
+void Attract_tiled(const __global Attraction* attractions, int attraction_count, const __global Node* nodes,
+                   int slot_count, float growth_distance, int repeat_guard, __global float4* last_candidate,
+                   volatile __global int* candidate_counter, __global Candidate* candidates, int candidate_capacity) {
+    __local PullingAttraction tile[TILE];  // attractions base .. base + TILE - 1
+    const int idx = get_global_id(0), lid = get_local_id(0);
+    const Node n = nodes[min(idx, slot_count - 1)];
+    const bool mine = idx < slot_count && n.active && n.t >= 1.0f;  // only grown nodes branch
+    float3 dir = (float3)(0.0f);
+    int counter = 0;
+    for (int base = 0; base < attraction_count; base += TILE) {
+        if (base + lid < attraction_count) tile[lid] = pulling_attraction(attractions, base + lid);
+        barrier(CLK_LOCAL_MEM_FENCE);
+        for (int t = 0; mine && t < min(TILE, attraction_count - base); t++) {
+            if (tile[t].node == idx) pull_towards(POSITION(tile[t]), POSITION(n), &dir, &counter);
+        }
+        barrier(CLK_LOCAL_MEM_FENCE);
+    }
+    if (mine) {
+        emit_candidate(idx, POSITION(n), dir, counter, growth_distance, repeat_guard, last_candidate, candidate_counter,
+                       candidates, candidate_capacity);
+    }
+}
+
+__kernel __attribute__((reqd_work_group_size(TILE, 1, 1)))
+void Remove_tiled(__global Attraction* attractions, int attraction_count, const __global Node* nodes, int slot_count,
+                  float kill_distance) {
+    __local float4 tile[TILE];  // node_tile_entry of slots base .. base + TILE - 1
+    const int idx = get_global_id(0), lid = get_local_id(0);
+    Attraction attr = {0};  // padding work-items: an inactive record (reading a real one races with its owner)
+    if (idx < attraction_count) attr = attractions[idx];
+    bool alive = attr.active;  // still looking for a node within the kill distance
+    bool killed = false;
+    for (int base = 0; base < slot_count; base += TILE) {
+        tile[lid] = node_tile_entry(nodes, base + lid, slot_count);
+        barrier(CLK_LOCAL_MEM_FENCE);
+        for (int t = 0; alive && t < min(TILE, slot_count - base); t++) {
+            if (tile[t].w != 0.0f && distance(POSITION(attr), tile[t].xyz) < kill_distance) {
+                alive = false;  // book: the first node within the kill distance ends the loop
+                killed = true;
+            }
+        }
+        barrier(CLK_LOCAL_MEM_FENCE);
+    }
+    if (killed) {
+        attr.active = 0u;
+        attractions[idx] = attr;
+    }
+}
+
+// }}}
 
 // {{{ uniform-grid variants (ugpcl): the same results as the all-pairs loops above
 

@@ -11,10 +11,15 @@
 //                         the nearest attraction (all of them, no radius)
 //    5. Search            as the plain kernel (bind space)
 //    6. Attract           as the plain kernel, and the candidate takes the bone of the nearest attraction pulling it
-//    7. Connect           as the plain kernel, plus animated = position, index0 = the candidate's bone
+//    7. ConnectCount      as the plain kernel: connect_count = min(free slots, candidates) on the device
+//       Connect           as the plain kernel, plus animated = position, index0 = the candidate's bone
 //    8. Remove            as the plain kernel (bind space)
 //    9. Grow              as the plain kernel
 //   10. Animate           nodes, bind poses, bone matrices -> nodes.animated = (bone * bind) * (position, 1)
+// Tiled variants (what GPUs and Oclgrind run; the same results, see space_colonization.cl):
+//       Search_tiled      as Search, its loop over the node slots read through __local tiles
+//       Attract_tiled     as Attract, its loop over the attractions read through __local tiles
+//       Remove_tiled      as Remove, its loop over the node slots read through __local tiles
 // Matrices are numpy row-major float[16] per bone: y[r] = sum_c M[r][c] x[c] (Unity's own memory order is
 // column-major; the host converts).
 // Build defines: none. Atomics: the Append/Consume counters of pool.h only. Races: none (see space_colonization.cl).
@@ -152,12 +157,19 @@ __kernel void Attract(const __global SkinnedAttraction* attractions, int attract
     if (slot >= 0) candidates[slot] = (SkinnedCandidate){c.x, c.y, c.z, idx, attractions[nearest].bone};
 }
 
+// connect_count = min(free node slots, candidates), as the plain ConnectCount.
+__kernel void ConnectCount(const __global int* node_pool_counter, const __global int* candidate_counter,
+                           __global int* connect_count) {
+    if (get_global_id(0) == 0) *connect_count = min(node_pool_counter[POOL_COUNT], candidate_counter[POOL_COUNT]);
+}
+
 __kernel void Connect(__global SkinnedNode* nodes, volatile __global int* node_pool_counter,
                       const __global int* node_pool, volatile __global int* candidate_counter,
                       const __global SkinnedCandidate* candidates, volatile __global int* edge_counter,
-                      __global Edge* edges, int edge_capacity, int connect_count, float mass_min, float mass_max) {
+                      __global Edge* edges, int edge_capacity, const __global int* connect_count, float mass_min,
+                      float mass_max) {
     const int id = get_global_id(0);
-    if (id >= connect_count) return;  // host: connect_count = min(free node slots, candidates)
+    if (id >= *connect_count) return;  // ConnectCount: min(free node slots, candidates)
     const int slot = pool_consume(candidate_counter);  // old count - 1: the last appended candidates go first
     if (slot < 0) return;
     const SkinnedCandidate c = candidates[slot];
@@ -221,3 +233,119 @@ __kernel void Animate(__global SkinnedNode* nodes, int slot_count, const __globa
     node.az = animated.z;
     nodes[idx] = node;
 }
+
+// {{{ tiled variants: the loops of Search, Attract and Remove through __local tiles (see space_colonization.cl)
+
+#define TILE 128  // work-group size of the tiled kernels = records per __local tile (LOCAL_SIZE on the host)
+
+// A node as the tiled loops read it: bind-space position, w = 1 for an active node, 0 for a free slot or past
+// slot_count.
+inline float4 node_tile_entry(const __global SkinnedNode* nodes, int i, int slot_count) {
+    if (i >= slot_count) return (float4)(0.0f);
+    const SkinnedNode n = nodes[i];
+    return (float4)(n.px, n.py, n.pz, n.active ? 1.0f : 0.0f);
+}
+
+// An attraction as Attract_tiled reads it: its bind-space position and the node it pulls (-1: none, or not active).
+typedef struct {
+    float px, py, pz;
+    int node;
+} PullingAttraction;
+
+__kernel __attribute__((reqd_work_group_size(TILE, 1, 1)))
+void Search_tiled(__global SkinnedAttraction* attractions, int attraction_count, const __global SkinnedNode* nodes,
+                  int slot_count, float influence_distance) {
+    __local float4 tile[TILE];  // node_tile_entry of slots base .. base + TILE - 1
+    const int idx = get_global_id(0), lid = get_local_id(0);
+    SkinnedAttraction attr = {0};  // padding work-items: an inactive record (reading a real one races with its owner)
+    if (idx < attraction_count) attr = attractions[idx];
+    const bool mine = attr.active;  // inactive attractions keep their stale `found`
+    attr.found = 0u;
+    float min_dist = influence_distance;
+    for (int base = 0; base < slot_count; base += TILE) {
+        tile[lid] = node_tile_entry(nodes, base + lid, slot_count);
+        barrier(CLK_LOCAL_MEM_FENCE);  // the tile is complete before anyone reads it
+        for (int t = 0; mine && t < min(TILE, slot_count - base); t++) {
+            if (tile[t].w == 0.0f) continue;
+            const float d = length(POSITION(attr) - tile[t].xyz);  // bind space, never `animated`
+            if (d < min_dist) {
+                min_dist = d;
+                attr.nearest = base + t;
+                attr.found = 1u;
+            }
+        }
+        barrier(CLK_LOCAL_MEM_FENCE);  // everyone is done with the tile before the next one overwrites it
+    }
+    if (mine) attractions[idx] = attr;
+}
+
+__kernel __attribute__((reqd_work_group_size(TILE, 1, 1)))
+void Attract_tiled(const __global SkinnedAttraction* attractions, int attraction_count,
+                   const __global SkinnedNode* nodes, int slot_count, float growth_distance, int repeat_guard,
+                   __global float4* last_candidate, volatile __global int* candidate_counter,
+                   __global SkinnedCandidate* candidates, int candidate_capacity) {
+    __local PullingAttraction tile[TILE];  // attractions base .. base + TILE - 1
+    const int idx = get_global_id(0), lid = get_local_id(0);
+    const SkinnedNode n = nodes[min(idx, slot_count - 1)];
+    const bool mine = idx < slot_count && n.active && n.t >= 1.0f;
+    float3 dir = (float3)(0.0f);
+    int counter = 0;
+    float dist = 1e8f;
+    int nearest = -1;
+    for (int base = 0; base < attraction_count; base += TILE) {
+        if (base + lid < attraction_count) {
+            const SkinnedAttraction a = attractions[base + lid];
+            tile[lid] = (PullingAttraction){a.px, a.py, a.pz, a.active && a.found ? a.nearest : -1};
+        }
+        barrier(CLK_LOCAL_MEM_FENCE);
+        for (int t = 0; mine && t < min(TILE, attraction_count - base); t++) {
+            if (tile[t].node != idx) continue;
+            const float3 dir2 = POSITION(tile[t]) - POSITION(n);
+            const float l2 = length(dir2);
+            if (l2 < MIN_DIRECTION) continue;  // a seed sitting on its attraction: no direction
+            dir += normalize(dir2);
+            counter++;
+            if (l2 < dist) {  // the nearest pulling attraction lends its bone to the candidate
+                dist = l2;
+                nearest = base + t;
+            }
+        }
+        barrier(CLK_LOCAL_MEM_FENCE);
+    }
+    if (!mine || counter == 0) return;
+    const float3 c = POSITION(n) + dir / (float)counter * growth_distance;
+    if (repeat_guard) {
+        if (repeats(last_candidate[idx], POSITION(n), c, growth_distance)) return;
+        last_candidate[idx] = (float4)(c, 1.0f);
+    }
+    const int slot = pool_append(candidate_counter, candidate_capacity);  // old count = this candidate's entry
+    if (slot >= 0) candidates[slot] = (SkinnedCandidate){c.x, c.y, c.z, idx, attractions[nearest].bone};
+}
+
+__kernel __attribute__((reqd_work_group_size(TILE, 1, 1)))
+void Remove_tiled(__global SkinnedAttraction* attractions, int attraction_count, const __global SkinnedNode* nodes,
+                  int slot_count, float kill_distance) {
+    __local float4 tile[TILE];  // node_tile_entry of slots base .. base + TILE - 1
+    const int idx = get_global_id(0), lid = get_local_id(0);
+    SkinnedAttraction attr = {0};  // padding work-items: an inactive record (reading a real one races with its owner)
+    if (idx < attraction_count) attr = attractions[idx];
+    bool alive = attr.active;  // still looking for a node within the kill distance
+    bool killed = false;
+    for (int base = 0; base < slot_count; base += TILE) {
+        tile[lid] = node_tile_entry(nodes, base + lid, slot_count);
+        barrier(CLK_LOCAL_MEM_FENCE);
+        for (int t = 0; alive && t < min(TILE, slot_count - base); t++) {
+            if (tile[t].w != 0.0f && distance(POSITION(attr), tile[t].xyz) < kill_distance) {
+                alive = false;  // the first node within the kill distance ends the loop
+                killed = true;
+            }
+        }
+        barrier(CLK_LOCAL_MEM_FENCE);
+    }
+    if (killed) {
+        attr.active = 0u;
+        attractions[idx] = attr;
+    }
+}
+
+// }}}

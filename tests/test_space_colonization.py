@@ -64,6 +64,17 @@ def make(runtime, seed=0, **overrides) -> Simulation:
     return Simulation(runtime, Params(**overrides), seed)
 
 
+MODES = ["all_pairs", "tiled", "grid"]
+"""How Search, Attract and Remove find their pairs: the book's loops, their _tiled variants (what GPUs and Oclgrind
+run for search=all_pairs) or the uniform grid (search=grid)."""
+
+
+def make_mode(runtime, seed, mode: str, **overrides) -> Simulation:
+    sim = make(runtime, seed, search="grid" if mode == "grid" else "all_pairs", **overrides)
+    sim.tiles = mode == "tiled"  # after the reset: load_state replaces what it grew
+    return sim
+
+
 def sample_state(sim: Simulation, seed: int, live: int = 40):
     """The scene's own attractions (sorted by grid cell) with `live` nodes near random attraction points, a quarter
     of them still growing (t < 1), some attractions found, some removed."""
@@ -108,9 +119,9 @@ def test_records_match_the_device_structs(runtime, struct, dtype, size):
 # {{{ kernels vs reference
 
 
-@pytest.mark.parametrize("search", ["all_pairs", "grid"])
-def test_search_matches_reference(runtime, seed, search):
-    sim = make(runtime, seed, side=12, search=search)  # A = 672
+@pytest.mark.parametrize("mode", MODES)
+def test_search_matches_reference(runtime, seed, mode):
+    sim = make_mode(runtime, seed, mode, side=12)  # A = 672: five tiles and a part
     nodes, attractions = sample_state(sim, seed)
     sim.load_state(nodes, attractions)
     sim.search()
@@ -125,10 +136,11 @@ def test_search_matches_reference(runtime, seed, search):
     np.testing.assert_array_equal(got["nearest"][inactive], attractions["nearest"][inactive])
 
 
-def test_grid_search_and_remove_equal_the_all_pairs_loops_exactly(runtime, seed):
+def test_tiles_and_grid_equal_the_books_loops_exactly(runtime, seed):
+    """Search, Attract and Remove: the _tiled kernels and the grid's give the book's loops' results bit for bit."""
     results = {}
-    for search in ("all_pairs", "grid"):
-        sim = make(runtime, seed, side=12, search=search)
+    for mode in MODES:
+        sim = make_mode(runtime, seed, mode, side=12)
         nodes, attractions = sample_state(sim, seed, live=120)
         sim.load_state(nodes, attractions)
         sim.search()
@@ -136,14 +148,15 @@ def test_grid_search_and_remove_equal_the_all_pairs_loops_exactly(runtime, seed)
         sim.attract()
         candidates = np.sort(sim.candidates.read(), order="node")
         sim.remove()
-        results[search] = searched, candidates, sim.read_attractions()
-    for a, b in zip(results["all_pairs"], results["grid"], strict=True):
-        np.testing.assert_array_equal(a, b)  # integers exactly, candidate positions bitwise (same sum order)
+        results[mode] = searched, candidates, sim.last_candidate.get(), sim.read_attractions()
+    for mode in ("tiled", "grid"):
+        for a, b in zip(results["all_pairs"], results[mode], strict=True):
+            np.testing.assert_array_equal(a, b, err_msg=mode)  # integers exactly, positions bitwise (same sum order)
 
 
-@pytest.mark.parametrize("search", ["all_pairs", "grid"])
-def test_attract_matches_reference(runtime, seed, search):
-    sim = make(runtime, seed, side=12, search=search, repeat_guard=False)  # the book's Attract, as the reference
+@pytest.mark.parametrize("mode", MODES)
+def test_attract_matches_reference(runtime, seed, mode):
+    sim = make_mode(runtime, seed, mode, side=12, repeat_guard=False)  # the book's Attract, as the reference
     nodes, attractions = sample_state(sim, seed)
     sim.load_state(nodes, attractions)
     sim.search()
@@ -222,9 +235,9 @@ def test_connect_takes_the_last_candidates_when_slots_run_short(runtime, seed):
     assert sorted(zip(edges["a"], edges["b"], strict=True)) == sorted(zip(new["from"], free, strict=True))
 
 
-@pytest.mark.parametrize("search", ["all_pairs", "grid"])
-def test_remove_matches_reference(runtime, seed, search):
-    sim = make(runtime, seed, side=12, search=search)
+@pytest.mark.parametrize("mode", MODES)
+def test_remove_matches_reference(runtime, seed, mode):
+    sim = make_mode(runtime, seed, mode, side=12)
     nodes, attractions = sample_state(sim, seed, live=150)
     sim.load_state(nodes, attractions)
     sim.remove()
@@ -268,15 +281,15 @@ def assert_same_points(got: np.ndarray, want: np.ndarray, atol: float, what: str
 
 
 @pytest.mark.parametrize(
-    "search, growth_speed",
-    [("all_pairs", 60.0), ("grid", 60.0), ("all_pairs", 22.0)],  # 22 (the book's): nodes mature in 3 steps
+    "mode, growth_speed",
+    [("all_pairs", 60.0), ("tiled", 60.0), ("grid", 60.0), ("all_pairs", 22.0)],  # 22 (the book's): mature in 3 steps
 )
-def test_whole_run_matches_the_numpy_oracle(runtime, search, growth_speed):
+def test_whole_run_matches_the_numpy_oracle(runtime, mode, growth_speed):
     """Mass 1: every node matures after the same number of steps, so node indices (atomic order) change nothing;
     the sets of nodes, edges and the live attractions must match after every step until growth ends."""
     seed = 2
-    p = Params(side=12, mass_min=1.0, mass_max=1.0, growth_speed=growth_speed, repeat_guard=True, search=search)
-    sim = Simulation(runtime, p, seed)
+    sim = make_mode(runtime, seed, mode, side=12, mass_min=1.0, mass_max=1.0, growth_speed=growth_speed)
+    p = sim.params
     rng = np.random.default_rng(seed)
     cloud = make_cloud(p, rng).astype(np.float32).astype(float)  # exactly the device's float32 values
     seeds = cloud[rng.integers(0, len(cloud), p.seed_count)]
@@ -606,10 +619,13 @@ def test_view_keys_change_the_simulation(runtime, gl):
 
 
 @pytest.mark.oclgrind
-@pytest.mark.parametrize("search", ["all_pairs", "grid"])
-def test_kernels_on_oclgrind(oclgrind, search):
+@pytest.mark.parametrize("mode", MODES)
+def test_kernels_on_oclgrind(oclgrind, mode):
     # A = 268 (side 8); wide radii so that every kernel finds work; repeat_guard covers last_candidate
+    search = "grid" if mode == "grid" else "all_pairs"
     sim = Simulation(oclgrind, Params(side=8, search=search, repeat_guard=True, growth_speed=60.0), seed=1)
+    assert sim.tiles, "Oclgrind runs the _tiled kernels by default"
+    sim.tiles = mode == "tiled"
     for _ in range(3):
         sim.step()
     assert sim.live_edges > 6

@@ -149,10 +149,23 @@ kills): Grow or Animate going past the count changes it, Remove reading past it 
 
 class Kernels:
     """The skinned kernels on hand-made buffers, launched as the host launches them (GrowthSimulation's step); the
-    attraction and node buffers each hold one guard record past their count."""
+    attraction and node buffers each hold one guard record past their count. ``tiles``: Search, Attract and Remove
+    run as their _tiled variants (what GPUs run), else the book's loops."""
 
-    def __init__(self, runtime, cloud, bones, slots: int, *, growth: float, mass: float, mass_max: float | None = None):
+    def __init__(
+        self,
+        runtime,
+        cloud,
+        bones,
+        slots: int,
+        *,
+        growth: float,
+        mass: float,
+        mass_max: float | None = None,
+        tiles: bool = False,
+    ):
         self.rt, self.program = runtime, runtime.program("space_colonization_skinned")
+        self.suffix = "_tiled" if tiles else ""
         self.attraction_count, self.slots = len(cloud), slots
         self.growth = growth
         self.masses = np.float32(mass), np.float32(mass if mass_max is None else mass_max)  # mass_min, mass_max
@@ -168,6 +181,7 @@ class Kernels:
         self.candidates = Pool(runtime, slots, SKINNED_CANDIDATE_DTYPE, "candidates")
         self.edges = Pool(runtime, 2 * slots, EDGE_DTYPE, "edges")
         self.last_candidate = runtime.zeros(slots, cltypes.float4)
+        self.connect_count = runtime.zeros(1, np.int32)
 
     def run(self, name: str, n: int, *args) -> None:
         self.program.kernel(name).over(n, LOCAL_SIZE, *args)
@@ -190,22 +204,28 @@ class Kernels:
         self.run("Seed", len(seeds), *args, pool.items.data, *self.masses)
 
     def search(self, influence: float) -> None:
-        self.run("Search", self.attraction_count, *self.heads(), np.float32(influence))
+        self.run("Search" + self.suffix, self.attraction_count, *self.heads(), np.float32(influence))
 
     def attract(self) -> None:
         self.candidates.set_count(0)
         tail = (np.float32(self.growth), np.int32(1), self.last_candidate.data)  # repeat_guard on (the default)
         cand = (self.candidates.counter.data, self.candidates.items.data, np.int32(self.slots))
-        self.run("Attract", self.slots, *self.heads(), *tail, *cand)
+        self.run("Attract" + self.suffix, self.slots, *self.heads(), *tail, *cand)
 
-    def connect(self, count: int) -> None:
+    def connect(self, forced_count: int | None = None) -> None:
+        """ConnectCount, then Connect over every candidate slot (the host's launch); ``forced_count`` replaces the
+        device's min(free slots, candidates), to reach pool_consume's empty branch."""
         pool, cand, edges = self.node_pool, self.candidates, self.edges
+        if forced_count is None:
+            self.run("ConnectCount", 1, pool.counter.data, cand.counter.data, self.connect_count.data)
+        else:
+            self.connect_count.set(np.array([forced_count], np.int32))
         args = (self.nodes.data, pool.counter.data, pool.items.data, cand.counter.data, cand.items.data)
         edge_args = (edges.counter.data, edges.items.data, np.int32(edges.capacity))
-        self.run("Connect", count, *args, *edge_args, np.int32(count), *self.masses)
+        self.run("Connect", cand.capacity, *args, *edge_args, self.connect_count.data, *self.masses)
 
     def remove(self, kill: float) -> None:
-        self.run("Remove", self.attraction_count, *self.heads(), np.float32(kill))
+        self.run("Remove" + self.suffix, self.attraction_count, *self.heads(), np.float32(kill))
 
     def setup_skin(self, vertices: np.ndarray, bones: np.ndarray) -> None:
         vertices = self.rt.to_device(np.ascontiguousarray(vertices, np.float32).reshape(-1))
@@ -224,11 +244,10 @@ class Kernels:
 
     def step(self, dT: float, influence: float, kill: float) -> None:
         """The host's step: Search .. Remove while the pool has free slots, connecting min(free, candidates); Grow."""
-        free = self.node_pool.count()
-        if free:
+        if self.node_pool.count():
             self.search(influence)
             self.attract()
-            self.connect(min(free, self.candidates.count()))
+            self.connect()
             self.remove(kill)
         self.grow(dT)
 
@@ -368,10 +387,10 @@ def assert_matches_reference(kernels: Kernels, ref: Reference, after: str) -> No
     assert got_edges == sorted((node_key(ref.position[a]), node_key(ref.position[b])) for a, b in ref.edges), where
 
 
-def tiny_run(runtime) -> tuple[Kernels, Reference]:
+def tiny_run(runtime, tiles: bool = False) -> tuple[Kernels, Reference]:
     """SetupAttractions, Setup, the pool put in TINY_POP_ORDER and Seed, and the reference at the same point."""
     p = TINY
-    kernels = Kernels(runtime, TINY_CLOUD, TINY_BONES, TINY_SLOTS, growth=p["growth"], mass=p["mass"])
+    kernels = Kernels(runtime, TINY_CLOUD, TINY_BONES, TINY_SLOTS, growth=p["growth"], mass=p["mass"], tiles=tiles)
     kernels.setup_attractions()
     kernels.setup()
     kernels.node_pool.fill(TINY_POP_ORDER[::-1])
@@ -401,12 +420,13 @@ def test_setup_skin_setup_and_setup_attractions_on_the_tiny_cloud(runtime):
     np.testing.assert_array_equal(np.sort(kernels.node_pool.read()), np.arange(TINY_SLOTS))
 
 
-def test_tiny_run_matches_the_reference_step_by_step(runtime):
+@pytest.mark.parametrize("tiles", [False, True], ids=["book_loops", "tiled"])
+def test_tiny_run_matches_the_reference_step_by_step(runtime, tiles):
     """Seed, the book's Step(0), then eleven steps of Search, Attract, Connect, Remove and Grow on 12 attractions:
     nodes (positions, parents, bones, t, offset, mass, animated), attractions (active, found, nearest), pool,
     candidate and edge counts after every step, and nothing read or written past the counts (the guard records)."""
     p = TINY
-    kernels, ref = tiny_run(runtime)
+    kernels, ref = tiny_run(runtime, tiles)
     assert_matches_reference(kernels, ref, "Seed")  # the seed on attraction 0 takes its bone
     for step in range(12):
         dT = TINY_DT if step else 0.0
@@ -469,7 +489,8 @@ def test_animate_skins_live_nodes_with_a_known_bone_only(runtime):
     np.testing.assert_allclose(got["animated"], want, atol=1e-5)
 
 
-def test_attract_skips_only_attractions_closer_than_min_direction(runtime):
+@pytest.mark.parametrize("tiles", [False, True], ids=["book_loops", "tiled"])
+def test_attract_skips_only_attractions_closer_than_min_direction(runtime, tiles):
     """An attraction exactly MIN_DIRECTION (1e-12) from its node still pulls it one growth distance; one on the node
     gives no direction and no candidate."""
     tiny = np.float32(MIN_DIRECTION)
@@ -481,7 +502,7 @@ def test_attract_skips_only_attractions_closer_than_min_direction(runtime):
     if out.get()[0] != tiny:
         pytest.skip("this device's length() is not exact at 1e-12: the boundary cannot be placed")
     cloud = np.array([[tiny, 0, 0], [0, 1, 0]], np.float32)
-    kernels = Kernels(runtime, cloud, [4, 6], 4, growth=0.5, mass=1.0)
+    kernels = Kernels(runtime, cloud, [4, 6], 4, growth=0.5, mass=1.0, tiles=tiles)
     nodes = np.zeros(5, SKINNED_NODE_DTYPE)
     nodes[[1, 2]] = [((0, 0, 0), (0, 0, 0), 1, 1.0, 0.0, 1.0, -1, 1), ((0, 1, 0), (0, 1, 0), 2, 1.0, 0.0, 1.0, -1, 1)]
     nodes[-1] = GUARD_NODE
@@ -497,11 +518,12 @@ def test_attract_skips_only_attractions_closer_than_min_direction(runtime):
     np.testing.assert_array_equal(candidates[0]["position"], [0.5, 0, 0])
 
 
-def test_repeat_guard_reads_the_nodes_own_last_candidate(runtime):
+@pytest.mark.parametrize("tiles", [False, True], ids=["book_loops", "tiled"])
+def test_repeat_guard_reads_the_nodes_own_last_candidate(runtime, tiles):
     """With the repeat guard, a node does not emit the candidate it emitted last time, nor one on itself (two
     opposite attractions); the other nodes' last candidates do not matter."""
     cloud = np.array([[1, 0.5, 0], [2, 1.5, 0], [3.5, 3, 0], [2.5, 3, 0], [5, 3, 0]], np.float32)
-    kernels = Kernels(runtime, cloud, [1, 2, 3, 4, 5], 4, growth=0.5, mass=1.0)
+    kernels = Kernels(runtime, cloud, [1, 2, 3, 4, 5], 4, growth=0.5, mass=1.0, tiles=tiles)
     nodes = np.zeros(5, SKINNED_NODE_DTYPE)
     for slot, position in ((1, (1, 0, 0)), (2, (2, 1, 0)), (3, (3, 3, 0))):
         nodes[slot] = (position, position, 0, 1.0, 0.0, 1.0, -1, 1)
@@ -526,7 +548,8 @@ def test_repeat_guard_reads_the_nodes_own_last_candidate(runtime):
 
 def test_seed_and_connect_make_nothing_once_the_pool_is_empty(runtime):
     """pool_consume's empty branch (the host never dispatches more consumers than free slots): a Seed or Connect
-    work-item that finds the node pool empty writes no node and no edge, and the pool count stays 0."""
+    work-item that finds the node pool empty writes no node and no edge, and the pool count stays 0; ConnectCount
+    gives such a Connect no work-item at all."""
     kernels = Kernels(runtime, TINY_CLOUD, TINY_BONES, 4, growth=0.4, mass=0.5)
     kernels.setup_attractions()
     kernels.setup()
@@ -538,7 +561,9 @@ def test_seed_and_connect_make_nothing_once_the_pool_is_empty(runtime):
     kernels.search(1.3)
     kernels.attract()
     assert kernels.candidates.count() == 1
-    kernels.connect(1)  # one candidate, no slot
+    kernels.connect()  # one candidate, no slot: ConnectCount says 0
+    assert kernels.connect_count.get()[0] == 0 and kernels.candidates.count() == 1
+    kernels.connect(forced_count=1)  # one work-item past ConnectCount's guard finds no slot
     _, nodes = kernels.read()
     np.testing.assert_array_equal(nodes["active"], [0, 0, 1, 0])
     assert kernels.node_pool.count() == 0 and kernels.edges.count() == 0
@@ -673,10 +698,13 @@ def test_skinned_view_shows_tubes_above_the_floor(runtime, gl):
 
 
 @pytest.mark.oclgrind
-def test_skinned_kernels_on_oclgrind(oclgrind):
-    # SetupSkin, SetupAttractions, Setup, Seed, Search, Attract, Connect, Remove, Grow and Animate on ~100 points
+@pytest.mark.parametrize("tiles", [False, True], ids=["book_loops", "tiled"])
+def test_skinned_kernels_on_oclgrind(oclgrind, tiles):
+    # SetupSkin, SetupAttractions, Setup, Seed, Search, Attract, ConnectCount, Connect, Remove, Grow and Animate on
+    # ~100 points; the reset runs the _tiled kernels (Oclgrind's default), the steps `tiles`
     scene = get("space_colonization_skinned")
     sim = scene.create(oclgrind, 1, resolution=28, repeat_guard=True, growth_speed=60.0)
+    sim.tiles = tiles
     for _ in range(2):
         sim.step()
     sim.reset()  # SetupAttractions on a used cloud

@@ -4,10 +4,16 @@
 Kernel order (clkernels/space_colonization.cl): ``reset`` runs Setup (every node slot into the pool), Seed
 (``seed_count`` nodes on random attraction points) and one step; each ``step`` runs, while the node pool has free
 slots, Search (nearest node of every attraction within the influence distance), Attract (every grown node pulled by
-an attraction proposes a candidate one growth distance along the mean unit vector), Connect (candidates become nodes
-joined by edges; never more than the free slots), Remove (attractions within the kill distance of a node die) and
-reads the pool and edge counts back; then always Grow (t += dt * growth_speed * mass). A node branches only once t
-reaches 1, which is also what animates the edges in the view.
+an attraction proposes a candidate one growth distance along the mean unit vector), ConnectCount and Connect
+(candidates become nodes joined by edges; never more than the free slots) and reads the pool and edge counts back,
+Remove (attractions within the kill distance of a node die); then always Grow (t += dt * growth_speed * mass). A
+node branches only once t reaches 1, which is also what animates the edges in the view.
+
+Speed (ugpcl; the same results): one read-back per Step, the node pool, edge and connect counters in one wait (the
+book's CopyNodesCount, CopyEdgesCount); the candidate counter is cleared by an enqueued fill and Connect's count
+(book: Mathf.Min(nodesCount, CopyCount) on the host) is taken on the device by ConnectCount. GPUs (and Oclgrind) run
+the all-pairs loops as Search_tiled, Attract_tiled and Remove_tiled (``tiles``), which read the records through
+__local tiles in the book's order; CPU devices run the book's loops.
 
 Scenes: ``space_colonization`` (Line scene) and ``space_colonization_tubes`` (TubularEdge scene). The chapter's
 other stems: ``space_colonization_skinned`` (the book's section 1.4 application, which reuses ``GrowthParams`` and
@@ -144,6 +150,10 @@ class GrowthSimulation(BaseSimulation):
     """Node slots waiting in the pool, as last read (book: nodesCount, CopyNodesCount)."""
     live_edges: int
     """Edges made so far, as last read (book: edgesCount, CopyEdgesCount)."""
+    tiles: bool
+    """The all-pairs loops of Search, Attract and Remove run as their _tiled kernels (read through __local tiles,
+    the same results): set at reset on GPUs and Oclgrind (which checks them); CPU devices run the book's loops, which
+    PoCL runs faster. The tests set it to compare the two."""
 
     @property
     def live_nodes(self) -> int:
@@ -154,12 +164,15 @@ class GrowthSimulation(BaseSimulation):
 
     def _allocate_nodes(self, capacity: int) -> None:
         rt = self.runtime
+        self.tiles = rt.is_oclgrind or not rt.device.type & cl.device_type.CPU
         self.capacity = int(capacity)
         self.nodes = rt.zeros(self.capacity, self.node_dtype)
         self.node_pool = Pool(rt, self.capacity, np.int32, "node_pool")
         self.candidates = Pool(rt, self.capacity, self.candidate_dtype, "candidates")  # <= one per node per step
         self.edges = Pool(rt, 2 * self.capacity, EDGE_DTYPE, "edges")  # book: count * 2
         self.last_candidate = rt.zeros(self.capacity, cltypes.float4)  # repeat_guard: (last candidate, emitted)
+        self.connect_count = rt.zeros(1, np.int32)  # ConnectCount -> Connect: min(free slots, candidates)
+        self.read_back = np.zeros(3, np.int32)  # free slots, edges, connect count: the one read of a Step
 
     def _start(self, seeds: np.ndarray) -> None:
         """Setup, Seed, then the book's Start ends with Step(0): the seeds branch at once."""
@@ -220,8 +233,8 @@ class GrowthSimulation(BaseSimulation):
 
     def attract(self) -> None:
         """Attract: the candidate counter is cleared, then every grown, pulled node appends one candidate."""
-        self.candidates.set_count(0)
-        self.program.kernel("Attract").over(
+        self._clear_candidates()
+        self.program.kernel(self._all_pairs("Attract")).over(
             self.capacity,
             LOCAL_SIZE,
             self.attractions.data,
@@ -230,6 +243,15 @@ class GrowthSimulation(BaseSimulation):
             np.int32(self.capacity),
             *self._attract_tail(),
         )
+
+    def _all_pairs(self, kernel: str) -> str:
+        """The book's all-pairs kernel, or its _tiled variant where ``tiles`` says so."""
+        return f"{kernel}_tiled" if self.tiles else kernel
+
+    def _clear_candidates(self) -> None:
+        """The book's SetCounterValue(0) on the candidates (count and refused), enqueued: the host does not wait."""
+        counter = self.candidates.counter
+        cl.enqueue_fill_buffer(self.runtime.queue, counter.data, np.int32(0), 0, counter.nbytes)
 
     def _attract_tail(self) -> tuple:
         """Attract's arguments after the node count (the same in every Attract variant)."""
@@ -244,11 +266,17 @@ class GrowthSimulation(BaseSimulation):
         )
 
     def connect(self) -> int:
-        """Connect: min(free slots, candidates) work-items each turn a candidate into a node and an edge."""
+        """ConnectCount and Connect: min(free slots, candidates) work-items, a count the device takes from the two
+        counters itself, each turn a candidate into a node and an edge; Connect is dispatched over every candidate
+        slot and the work-items past the count return. Then the one read of the Step (``_read_counts``). Returns the
+        nodes made (the connect count)."""
         p = self.params
-        connect_count = min(self.free_slots, self.candidates.count())  # book: Mathf.Min(nodesCount, CopyCount)
-        self.program.kernel("Connect").over(
-            connect_count,
+        program = self.program
+        program.kernel("ConnectCount").over(
+            1, 1, self.node_pool.counter.data, self.candidates.counter.data, self.connect_count.data
+        )
+        program.kernel("Connect").over(
+            self.candidates.capacity,
             LOCAL_SIZE,
             self.nodes.data,
             self.node_pool.counter.data,
@@ -258,14 +286,26 @@ class GrowthSimulation(BaseSimulation):
             self.edges.counter.data,
             self.edges.items.data,
             np.int32(self.edges.capacity),
-            np.int32(connect_count),
+            self.connect_count.data,
             np.float32(p.mass_min),
             np.float32(p.mass_max),
         )
-        self.last_connect = connect_count
-        if connect_count:
+        made = self._read_counts()
+        self.last_connect = made
+        if made:
             self._nodes_changed()
-        return connect_count
+        return made
+
+    def _read_counts(self) -> int:
+        """The Step's one read-back: free slots and edges (book: CopyNodesCount, CopyEdgesCount, which it reads after
+        Remove; only Connect changes them) and Connect's count, three small copies and one wait. Sets
+        ``free_slots`` and ``live_edges``, returns the connect count."""
+        queue, out = self.runtime.queue, self.read_back
+        cl.enqueue_copy(queue, out[0:1], self.node_pool.counter.data, is_blocking=False)
+        cl.enqueue_copy(queue, out[1:2], self.edges.counter.data, is_blocking=False)
+        cl.enqueue_copy(queue, out[2:3], self.connect_count.data, is_blocking=True)  # in order: all three are in
+        self.free_slots, self.live_edges = int(out[0]), int(out[1])
+        return int(out[2])
 
     def remove(self) -> None:
         """Remove: attractions within the kill distance of any active node (the new ones included)."""
@@ -273,7 +313,7 @@ class GrowthSimulation(BaseSimulation):
 
     def _attractions_to_nodes(self, kernel: str, radius: float) -> None:
         """Search and Remove: every active attraction visits every node slot within ``radius`` (the book's loops)."""
-        self.program.kernel(kernel).over(
+        self.program.kernel(self._all_pairs(kernel)).over(
             self.attraction_count,
             LOCAL_SIZE,
             self.attractions.data,
@@ -295,10 +335,8 @@ class GrowthSimulation(BaseSimulation):
         if self.free_slots > 0:  # book: do not run when the object pool is empty
             self.search()
             self.attract()
-            made = self.connect()
+            made = self.connect()  # and CopyNodesCount, CopyEdgesCount: free_slots, live_edges
             self.remove()
-            self.free_slots = self.node_pool.count()  # CopyNodesCount
-            self.live_edges = self.edges.count()  # CopyEdgesCount
             if made:
                 self.last_growth_step = self.steps
         self.grow(dt)
@@ -513,7 +551,7 @@ class Simulation(GrowthSimulation):
         if self.params.search != "grid":
             super().attract()
             return
-        self.candidates.set_count(0)
+        self._clear_candidates()
         if self.grid_cell < self._grid_cell_size():
             self._sort_attractions_by_cell()
         grid = self.attraction_grid

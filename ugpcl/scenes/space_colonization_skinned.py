@@ -5,15 +5,16 @@ SkinnedSpaceColonization.cs/.compute; docs/chapters/12-space-colonization.md).
 Kernel order (clkernels/space_colonization_skinned.cl): once per figure SetupSkin (each attraction takes the bone of
 its nearest mesh vertex); ``reset`` runs SetupAttractions (the cloud is kept, every attraction live again), Setup,
 Seed (plus the bone of the nearest attraction), one step and Animate; each ``step`` runs, while the node pool has free
-slots, Search, Attract (the candidate carries the bone of the nearest attraction pulling its node), Connect and
-Remove, then always Grow, all in bind space (the host side is ``GrowthSimulation`` of the sphere scene), and then
-Animate (``animated = (bone matrix . bind pose) . position`` with the figure's pose at the clip time).
+slots, Search, Attract (the candidate carries the bone of the nearest attraction pulling its node), ConnectCount,
+Connect and Remove, then always Grow, all in bind space (the host side is ``GrowthSimulation`` of the sphere scene,
+with its one read-back per Step and its _tiled loops on GPUs), and then Animate (``animated = (bone matrix . bind
+pose) . position`` with the figure's pose at the clip time).
 
 Differences from the book: the figure is procedural (``ugpcl.geometry.skinned_figure``: 12 bones, one capsule each,
 a looping dance) instead of the book's character, and its attraction cloud is sampled here (VolumeSampler: voxels,
 Poisson darts, those outside the surface dropped) instead of baked into an asset; ``repeat_guard`` is on by default as
 in the sphere scene (``--set repeat_guard=false`` is the book); the skinned kernels keep the book's all-pairs loops
-(no grid variant).
+(no grid variant; on GPUs read through __local tiles, the same results).
 """
 
 from __future__ import annotations
