@@ -5,19 +5,22 @@
 // Kernels, in host call order. `particles` is the Read buffer of the ping-pong pair; only UpdateParticles reads Read
 // and writes Write (then the host swaps). Pools are pool.h Append/Consume stacks of indices (host: ugpcl.buffers.Pool).
 //   reset (both scenes)
-//     InitParticles           -> particles (all dead), particle_pool (Append every index)
-//     InitEdges               -> edges (all dead), edge_pool (Append every index)                     [network]
+//     InitParticles           -> particles (all dead), particle_pool (every index, slot 0 on top: see below)
+//     InitEdges               -> edges (all dead), edge_pool (every index, slot 0 on top)             [network]
 //     EmitParticles           particle_pool (Consume) -> particles: emit_count cells on the unit circle around a point
 //   particle-only step (CellularGrowthParticleOnly.cs): [EmitParticles while emitting], UpdateParticles, Divide:
 //     UpdateParticles         Read -> Write: grow, all-pairs repulsion, drag and speed limit (ping-pong, no atomics)
-//     ParticleGridPoints      (search=grid) particles -> float2 points for ugpcl.grid.UniformGrid (dead slots parked
-//                             in one cell), then UpdateParticles_grid instead of UpdateParticles
+//     ParticleGridKeys        (search=grid) particles -> the (cell, index) keys of ugpcl.grid.UniformGrid.sort (dead
+//                             slots left out), then UpdateParticles_grid instead of UpdateParticles
 //     UpdateParticles_grid    the same, visiting only the 3x3 uniform-grid cells around each cell (ugpcl, search=grid)
 //     GetDividableParticles   particles -> dividable (Append): live cells with radius >= 0.95 threshold
 //     DivideParticles         dividable, particle_pool (Consume) -> particles: parent and child of half size
 //   network step (CellularGrowth.cs): iterations x (UpdateEdges, SpringEdges, UpdateParticles), then Divide:
 //     UpdateEdges             particles -> edges.force: spring towards |pa - pb| = ra + rb
 //     SpringEdges             edges -> particles.velocity (in place on Read): +-force / links over every edge slot
+//     EdgeEndKeys             (search=grid) edges -> (cell, edge end) keys for UniformGrid.sort, a particle slot for a
+//                             cell, then SpringEdges_sorted instead of SpringEdges
+//     SpringEdges_sorted      the same sums over each cell's own edges only, found through the sorted edge ends
 //     GetDividableEdges       particles, edges -> dividable (Append): live edges whose ends are both dividable and
 //                             not both at max_link links
 //     DivideUnconnectedParticles  (when no edge is dividable) particles with no link -> child + edge
@@ -26,10 +29,16 @@
 //   R key (then EmitParticles):
 //     ResetParticles          particles -> particle_pool (Append): every live cell dies
 //     ResetEdges              edges -> edge_pool (Append): every live edge dies                         [network]
+//   view (each frame)
+//     LiveSlotEnds            particles, edges -> ends: one past the last live particle slot and edge slot
 //
 // Build defines: BOOK_TEXT = 1 selects the formulas printed in the book's text (linear growth, child threshold
 // lerp(1.25, 2), random offset radius * 0.25, no wobble); 0 (default) the repository's, which made the figures.
 // Local size: the book's THREAD = [numthreads(128, 1, 1)] (host GROUP_SIZE); every kernel guards its id.
+//
+// Pool order (ugpcl): the init kernels fill the pools in a fixed order, slot 0 on top (the book appends in atomic
+// order), so consumes hand out slots 0, 1, 2, ... and the live cells and edges fill a prefix of their buffers: the
+// view reads back and draws only that prefix (LiveSlotEnds), not the capacity.
 //
 // Atomics: the pool counters (pool.h), `faults` (consumes that found a pool empty: always 0 when the host limits
 // hold), `tickets` (DivideUnconnectedParticles' cap, ugpcl) and the book's InterlockedAdd on Particle.links, here
@@ -86,18 +95,19 @@ inline int consume_index(volatile __global int* counter, const __global int* ite
 
 // {{{ reset (both scenes)
 
-__kernel void InitParticles(__global Particle* particles, int count, volatile __global int* particle_pool_counter,
-                            __global int* particle_pool) {
+// Book: _ParticlePoolAppend.Append(idx). ugpcl writes index idx to pool slot count - 1 - idx instead (the host sets
+// the counter to count): the top of the stack is slot 0, so the cells take slots 0, 1, 2, ... (see the header).
+__kernel void InitParticles(__global Particle* particles, int count, __global int* particle_pool) {
     const int idx = get_global_id(0);
     if (idx >= count) return;
     Particle p = create();
     p.alive = 0u;  // every slot starts dead
     particles[idx] = p;
-    pool_append_index(particle_pool_counter, particle_pool, count, idx);
+    particle_pool[count - 1 - idx] = idx;
 }
 
-__kernel void InitEdges(__global Edge* edges, int count, volatile __global int* edge_pool_counter,
-                        __global int* edge_pool) {
+// Book: _EdgePoolAppend.Append(idx); ugpcl fills the pool in InitParticles' fixed order.
+__kernel void InitEdges(__global Edge* edges, int count, __global int* edge_pool) {
     const int idx = get_global_id(0);
     if (idx >= count) return;
     Edge e;
@@ -105,7 +115,7 @@ __kernel void InitEdges(__global Edge* edges, int count, volatile __global int* 
     e.fx = e.fy = 0.0f;
     e.alive = 0u;
     edges[idx] = e;
-    pool_append_index(edge_pool_counter, edge_pool, count, idx);
+    edge_pool[count - 1 - idx] = idx;
 }
 
 // Threads id < emit_count (the host passes min(emit_count, pool count)) each wake one dead slot.
@@ -179,14 +189,20 @@ __kernel void UpdateParticles(const __global Particle* particles_read, __global 
     particles[idx] = p;  // dead slots too: Write must be fully overwritten
 }
 
-// ugpcl.grid.UniformGrid input: a live cell's position, or `parking` (a grid cell no live cell's 3x3 neighbourhood
-// reaches unless it left the covered box) for a dead slot, so dead slots never crowd the cells where cells live.
-__kernel void ParticleGridPoints(const __global Particle* particles, int count, float2 parking,
-                                 __global float2* points) {
+// ugpcl.grid.UniformGrid.sort input: a live cell's key as GridHash makes it ((grid cell << 32) | index), and
+// GRID_EMPTY_KEY for a dead slot, which then owns no grid cell: the sort costs a pass over the slots, and its
+// in-cell ordering (O(items of the cell) per item) stays with the few live cells of a cell, whatever the capacity.
+__kernel void ParticleGridKeys(const __global Particle* particles, int count, float4 origin, float cell_size,
+                               int4 dims, __global ulong* keys) {
     const int idx = get_global_id(0);
     if (idx >= count) return;
     const Particle p = particles[idx];
-    points[idx] = p.alive ? p.position : parking;
+    if (!p.alive) {
+        keys[idx] = GRID_EMPTY_KEY;
+        return;
+    }
+    const int cell = grid_cell_id(grid_cell_coord((float3)(p.position, 0.0f), origin.xyz, cell_size, dims), dims);
+    keys[idx] = ((ulong)cell << 32) | (ulong)idx;
 }
 
 // UpdateParticles with the repulsion loop over the 3x3 grid cells around the cell. Cell size >= the largest contact
@@ -315,6 +331,43 @@ __kernel void SpringEdges(__global Particle* particles, const __global Edge* edg
         }
     }
     particles[idx] = p;  // only its own record: in place on Read is safe
+}
+
+// search=grid: the keys UniformGrid.sort orders with a particle slot for a grid cell: each live edge's ends,
+// (a << 32) | 2 edge and (b << 32) | 2 edge + 1, so each cell's ends come out in edge order. SpringEdges matches
+// a loop (a == b) once, at a, and never an end outside the buffer: those ends get GRID_EMPTY_KEY, like dead edges.
+__kernel void EdgeEndKeys(const __global Edge* edges, int count, __global ulong* keys) {
+    const int idx = get_global_id(0);
+    if (idx >= count) return;
+    const Edge e = edges[idx];
+    const bool a_end = e.alive && e.a >= 0 && e.a < count;
+    const bool b_end = e.alive && e.b >= 0 && e.b < count && e.b != e.a;
+    keys[2 * idx] = a_end ? ((ulong)e.a << 32) | (ulong)(2 * idx) : GRID_EMPTY_KEY;
+    keys[2 * idx + 1] = b_end ? ((ulong)e.b << 32) | (ulong)(2 * idx + 1) : GRID_EMPTY_KEY;
+}
+
+// SpringEdges over the cell's own edge ends (ends[end_start[idx]] .. ends[end_stop[idx] - 1], from EdgeEndKeys and
+// the sort) instead of every edge slot: the same forces added in the same (edge) order, so the same velocities, in
+// O(links) per cell rather than O(capacity).
+__kernel void SpringEdges_sorted(__global Particle* particles, const __global Edge* edges, int count,
+                                 const __global ulong* ends, const __global int* end_start,
+                                 const __global int* end_stop) {
+    const int idx = get_global_id(0);
+    if (idx >= count) return;
+    Particle p = particles[idx];
+    if (!p.alive || p.links <= 0) return;
+    const float dif = 1.0f / (float)p.links;
+    for (int k = end_start[idx]; k < end_stop[idx]; k++) {
+        const int end = grid_item(ends[k]);  // 2 edge (this cell is its a) or 2 edge + 1 (its b)
+        const Edge e = edges[end >> 1];
+        const float2 force = (float2)(e.fx, e.fy);
+        if ((end & 1) == 0) {
+            p.velocity -= force * dif;
+        } else {
+            p.velocity += force * dif;
+        }
+    }
+    particles[idx] = p;
 }
 
 // Book: dividable_edge - not both ends at max_link links, and both ends dividable.
@@ -461,6 +514,32 @@ __kernel void ResetEdges(__global Edge* edges, int count, volatile __global int*
     if (idx >= count || !edges[idx].alive) return;
     edges[idx].alive = 0u;
     pool_append_index(edge_pool_counter, edge_pool, count, idx);
+}
+
+// }}}
+
+// {{{ view
+
+// ends[0] = one past the last live particle slot, or past the last cell a live edge names; ends[1] = one past the
+// last live edge slot (the host zeroes both; edge_count = 0 in the particle-only scene). The view reads back and
+// draws these prefixes, which the pools' fixed order keeps about as long as the live counts.
+__kernel void LiveSlotEnds(const __global Particle* particles, const __global Edge* edges, int count, int edge_count,
+                           volatile __global int* ends) {
+    __local int group_ends[2];
+    const int idx = get_global_id(0);
+    if (get_local_id(0) == 0) group_ends[0] = group_ends[1] = 0;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    if (idx < count && particles[idx].alive) atomic_max(&group_ends[0], idx + 1);  // old values unused
+    if (idx < edge_count && edges[idx].alive) {
+        const Edge e = edges[idx];
+        atomic_max(&group_ends[1], idx + 1);
+        atomic_max(&group_ends[0], clamp(max(e.a, e.b) + 1, 0, count));
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
+    if (get_local_id(0) == 0) {  // one global atomic per group
+        if (group_ends[0] > 0) atomic_max(&ends[0], group_ends[0]);
+        if (group_ends[1] > 0) atomic_max(&ends[1], group_ends[1]);
+    }
 }
 
 // }}}

@@ -324,6 +324,51 @@ def test_update_edges_and_spring_edges_match_reference(runtime, seed):
     assert np.linalg.norm(change[a]) > 1e-3
 
 
+@pytest.mark.parametrize("count", [128, 201])  # whole groups, a partial last group
+def test_spring_edges_sorted_equals_spring_edges(runtime, seed, count):
+    """search=grid: SpringEdges_sorted over each cell's edge ends (EdgeEndKeys, then the sort) adds the same forces in
+    the same edge order as the book's scan of every edge slot: the same velocities, bit for bit. The network has
+    cells of many links in random edge slots, a loop (a == b: SpringEdges counts it once, at a), live edges at dead
+    cells, cells without links, and dead edges with stale ends and forces (which must not count)."""
+    rng = np.random.default_rng(seed)
+    parts = scattered(count, count // 2, seed)
+    parts["links"] = rng.integers(0, 5, count)
+    edges = np.zeros(count, EDGE_DTYPE)
+    edges["a"], edges["b"] = rng.integers(0, count, count), rng.integers(0, 24, count)  # cells 0..23: many links
+    edges["force"] = rng.normal(0, 1, (count, 2))
+    edges["alive"] = rng.random(count) < 0.7
+    loop = np.flatnonzero((parts["alive"] != 0) & (parts["links"] > 0))[0]
+    edges[5] = (loop, loop, (0.5, -0.25), 1)
+    results = {}
+    for search in ("all_pairs", "grid"):
+        sim = network(runtime, count=count, search=search)
+        sim.load(parts, edges)
+        sim.spring_edges()
+        results[search] = sim.particle_records()
+    np.testing.assert_array_equal(results["grid"], results["all_pairs"])
+    moved = results["grid"]["velocity"] != parts["velocity"]
+    assert moved.any(axis=1).sum() > count // 8, "too few cells felt a spring: the test exercises nothing"
+
+
+def test_grid_sort_holds_the_live_cells_only(runtime, seed):
+    """search=grid: ParticleGridKeys gives each live cell its grid cell's key, as GridHash would, and dead slots none:
+    the sorted keys are exactly the live cells' (cell, index), then empty keys."""
+    count = 300
+    parts = scattered(count, 120, seed, box=30.0)
+    sim = network(runtime, count=count, search="grid")
+    sim.load(parts)
+    sim.update_particles(1.0 / 60.0)  # sorts the loaded state
+    grid = sim.grid
+    live = np.flatnonzero(parts["alive"])
+    origin = np.float32(grid.origin[0]), np.float32(grid.origin[1])
+    xy = [np.floor((parts["position"][live, d] - origin[d]) / np.float32(grid.cell_size)) for d in (0, 1)]
+    cx, cy = (np.clip(c, 0, grid.dims[d] - 1).astype(np.uint64) for d, c in enumerate(xy))
+    cells = cy * np.uint64(grid.dims[0]) + cx
+    expected = np.full(count, np.uint64(0xFFFFFFFFFFFFFFFF))
+    expected[: len(live)] = np.sort((cells << np.uint64(32)) | live.astype(np.uint64))
+    np.testing.assert_array_equal(grid.sorted_keys(), expected)
+
+
 # }}}
 
 # {{{ pools and invariants
@@ -352,6 +397,34 @@ def test_pool_invariants_after_every_step_and_divide(runtime, scene, overrides):
     sim.reset()  # the R key: ResetParticles / ResetEdges, then the scene's start
     check_pools(sim)
     assert int(sim.particle_records()["alive"].sum()) == (1 if sim.has_edges else 0)
+
+
+def test_pools_hand_out_slots_from_zero_and_the_view_reads_that_prefix(runtime):
+    """The init kernels put slot 0 on top of each pool: a growing network fills particle and edge slots 0, 1, 2, ...
+    without gaps, and live_records (the views' read-back) returns exactly those prefixes. Cells loaded into scattered
+    slots are all in the prefix too: it ends past the last live slot, and past every cell a live edge names."""
+    sim = network(runtime, count=512)
+    for _ in range(300):
+        sim.step()
+    parts, edges = sim.particle_records(), sim.edge_records()
+    alive, live_edges = np.flatnonzero(parts["alive"]), np.flatnonzero(edges["alive"])
+    assert len(alive) >= 3 and len(live_edges) >= 2
+    np.testing.assert_array_equal(alive, np.arange(len(alive)))
+    np.testing.assert_array_equal(live_edges, np.arange(len(live_edges)))
+    assert sim.live_slot_ends() == (len(alive), len(live_edges))
+    prefix_parts, prefix_edges = sim.live_records()
+    np.testing.assert_array_equal(prefix_parts, parts[: len(alive)])
+    np.testing.assert_array_equal(prefix_edges, edges[: len(live_edges)])
+    loaded = np.zeros(512, PARTICLE_DTYPE)
+    loaded["alive"][[3, 300]] = 1
+    links = np.zeros(512, EDGE_DTYPE)
+    links[[9, 40]] = [(3, 300, (0.0, 0.0), 1), (3, 411, (0.0, 0.0), 1)]  # the second ends at a dead cell
+    sim.load(loaded, links)
+    assert sim.live_slot_ends() == (412, 41)
+    cells = particles_only(runtime, count=512, emit_frames=3)
+    for _ in range(3):
+        cells.step()
+    assert cells.live_slot_ends() == (24, 0) and len(cells.live_records()[1]) == 0
 
 
 @pytest.mark.parametrize("pattern", ["closed", "branch"])
@@ -735,7 +808,8 @@ def test_view_draws_discs_and_edges_where_the_cells_are(runtime, gl):
     sim.load(parts, edges)
     size = (160, 120)
     view, camera, pixels, primitives = render(runtime, gl, "cellular_growth", sim, size)
-    assert primitives == 2 * count + count, "two triangles per particle slot, one line per edge slot"
+    # the live prefixes only: particle slots 0..41 (the last live cell), edge slots 0..7 (the last live edge)
+    assert primitives == 2 * 42 + 8, "two triangles per particle slot, one line per edge slot, of the live prefixes"
     mask = foreground(pixels, view.background)
     px, py = to_pixels(camera, centers, size)
     assert mask[py, px].all(), "a cell's centre shows background"
@@ -805,7 +879,7 @@ def test_sphere_view_shades_each_disc(runtime, gl):
     sim.load(parts)
     size = (200, 150)
     view, camera, pixels, primitives = render(runtime, gl, "cellular_growth_sphere", sim, size)
-    assert primitives == 2 * count
+    assert primitives == 2 * 2, "two triangles per slot of the live prefix (slots 0 and 1)"
     mask = foreground(pixels, view.background)
     px, py = to_pixels(camera, np.array([(-3.0, 1.0), (3.0, 1.0)]), size)
     assert mask[py, px].all()
@@ -823,7 +897,7 @@ def test_particle_view_and_keys(runtime, gl):
     for _ in range(30):
         sim.step()
     view, camera, pixels, primitives = render(runtime, gl, "cellular_growth_particles", sim)
-    assert primitives == 2 * 256
+    assert primitives == 2 * view.alive < 2 * 256, "the pool hands out slots 0, 1, 2 ...: the live prefix, no gaps"
     assert foreground(pixels, view.background).mean() > 0.05
     keys = {k.key for k in view.keys}
     assert {"d", "+", "-", "e", "f", "g"} <= keys and "tab" not in keys
@@ -913,8 +987,11 @@ def test_kernels_on_oclgrind(oclgrind):
     all_pairs = sim.particle_records()
     sim.update(search="grid")
     sim.load(crowd)
-    sim.update_particles(1.0 / 60.0)  # ParticleGridPoints, the grid build, UpdateParticles_grid
+    sim.update_particles(1.0 / 60.0)  # ParticleGridKeys, the grid sort, UpdateParticles_grid
     np.testing.assert_allclose(sim.particle_records()["position"], all_pairs["position"], rtol=1e-5, atol=1e-5)
+    sim.load(parts, edges)
+    sim.spring_edges()  # search=grid: EdgeEndKeys, the sort, SpringEdges_sorted
+    assert len(sim.live_records()[0]) == 6  # LiveSlotEnds
     sim.reset()  # ResetParticles, ResetEdges, EmitParticles
     check_pools(sim)
     cells = ParticleSimulation(oclgrind, ParticleParams(count=count, max_divide_count=1, emit_frames=1), 0)

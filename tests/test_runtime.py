@@ -233,6 +233,9 @@ def test_read_back_mirrors_an_array_into_one_kept_host_copy(runtime):
     device.fill(np.float32(7))
     again = runtime.read_back(device)
     assert again is first and np.all(again == 7)
+    device.set(values)
+    prefix = runtime.read_back(device, count=5)  # a live prefix only, into the same kept array
+    assert np.shares_memory(prefix, first) and np.array_equal(prefix, values[:5]) and np.all(first[5:] == 7)
     part = device[10:20]
     part.set(np.arange(10, dtype=np.float32))
     assert np.array_equal(runtime.read_back(part), np.arange(10))

@@ -590,11 +590,14 @@ class Runtime:
             limit = self.device.max_mem_alloc_size
             raise ValueError(f"a buffer of shape {shape} needs {nbytes} bytes; {self.label} allows {limit} per buffer")
 
-    def read_back(self, array: cla.Array) -> np.ndarray:
+    def read_back(self, array: cla.Array, count: int | None = None) -> np.ndarray:
         """``array``'s contents in page-locked host memory kept for that array (a mapped ALLOC_HOST_PTR buffer): the
         copy runs at the bus's full speed and touches no fresh pages, where ``get()`` copies into a new pageable
         array each time (a million boids, 32 MB: 15-25 ms here, most of it page faults). For the views' uploads,
-        which hand the result straight to GL: the next ``read_back`` of the same array overwrites it."""
+        which hand the result straight to GL: the next ``read_back`` of the same array overwrites it. ``count``:
+        only the first ``count`` elements (a live prefix) are copied, and that prefix of the kept array returned."""
+        if count is not None and not 0 <= count <= len(array):
+            raise ValueError(f"read_back: count must be in [0, {len(array)}], got {count}")
         key = id(array)
         staged = self._staging.get(key)
         if staged is None or staged[1].shape != array.shape or staged[1].dtype != array.dtype:
@@ -604,10 +607,11 @@ class Runtime:
             if staged is None:
                 weakref.finalize(array, self._staging.pop, key, None)
             self._staging[key] = staged = (pinned, host)
-        if array.nbytes:
-            cl.enqueue_copy(self.queue, staged[1], array.base_data, src_offset=array.offset)
-            self.read_back_bytes += array.nbytes
-        return staged[1]
+        host = staged[1] if count is None else staged[1][:count]
+        if host.nbytes:
+            cl.enqueue_copy(self.queue, host, array.base_data, src_offset=array.offset)
+            self.read_back_bytes += host.nbytes
+        return host
 
     def finish(self) -> None:
         self.queue.finish()

@@ -24,7 +24,11 @@ the Closed limit uses edge pool // 2, since a triangle split takes two edge slot
 parents from a snapshot (the book's launch can race on a slot turning from dead to child). A consume that finds a
 pool empty returns no slot and is counted in ``faults`` (HLSL: undefined behaviour), so ``variant=book`` runs out of
 slots safely. ``book_text`` selects the four formulas printed in the book instead of the repository's (which made the
-figures). ``search=grid`` finds repulsion partners through ``ugpcl.grid.UniformGrid`` instead of all pairs.
+figures). ``search=grid`` finds repulsion partners through ``ugpcl.grid.UniformGrid`` instead of all pairs, and each
+cell's edges through its edge ends sorted by cell (``EdgeEndKeys``, ``SpringEdges_sorted``) instead of a scan of
+every edge slot: a step then costs passes over the slots plus work per live cell, not live cells x capacity.
+The init kernels fill the pools in a fixed order, slot 0 on top (the book: atomic order), so cells and edges take
+slots 0, 1, 2, ...: the views read back and draw only the live prefix (``live_records``), not the capacity.
 ``normalize(0)`` is guarded everywhere it could occur. ``seed`` shifts the book's clock ``_Time`` (every random draw
 is ``nrand`` of an index and the time) by ``SEED_CLOCK_OFFSET`` seconds per seed. The network scenes' first cell starts
 at radius ``START_RADIUS`` (0.1) rather than the book's nrand(0, 0) = 0, which stays 0 and shows nothing until the
@@ -104,7 +108,8 @@ class ParticleParams(BaseParams):
     """Headless script: the first emit_frames steps emit emit_count cells around the origin (the book emits while the
     left mouse button is held)."""
     search: str = param("all_pairs", choices=("all_pairs", "grid"), live=True)
-    """Repulsion partners: the book's loop over every slot, or the 3x3 cells of a uniform grid (ugpcl)."""
+    """Repulsion partners: the book's loop over every slot, or the 3x3 cells of a uniform grid (ugpcl); grid also
+    finds each cell's edges (SpringEdges) through its sorted edge ends instead of a scan of every edge slot."""
     variant: str = param("fixed", choices=("book", "fixed"), live=True)
     """Host limits of the divide kernels: the book's, or with the two-edge Closed guard and the
     DivideUnconnectedParticles ticket and snapshot (see the module docstring)."""
@@ -204,13 +209,15 @@ class ParticleSimulation(BaseSimulation):
         rt = self.runtime
         self.count = count
         self.particles = PingPong(rt.zeros(count, PARTICLE_DTYPE), rt.zeros(count, PARTICLE_DTYPE))
-        self.particle_pool = Pool(rt, count, np.int32, "particle_pool")  # free particle slots
+        self.particle_pool = Pool(rt, count, np.int32, "particle_pool")  # free particle slots, slot 0 on top
         self.dividable = Pool(rt, count, np.int32, "dividable")  # particle (or edge) indices to divide
         self.faults = rt.zeros(1, np.int32)  # consumes that found a pool empty
         self.edges = rt.zeros(count if self.has_edges else 1, EDGE_DTYPE)
         self.edge_pool = Pool(rt, count, np.int32, "edge_pool") if self.has_edges else None
         self.snapshot = rt.zeros(count, PARTICLE_DTYPE) if self.has_edges else None
         self.tickets = rt.zeros(1, np.int32)
+        self.slot_ends = rt.zeros(2, np.int32)  # LiveSlotEnds: the live prefixes of particles and edges
+        self.edge_ends = None  # search=grid: each cell's edge ends sorted by cell (made on first use)
 
     def clock(self, time: float | None = None) -> np.float32:
         """The kernels' _Time: seconds since reset (default: now), shifted by the seed."""
@@ -221,15 +228,10 @@ class ParticleSimulation(BaseSimulation):
     # {{{ kernels, in the book's order
 
     def init_particles(self) -> None:
-        """InitParticles: every slot dead, every index appended to the particle pool."""
-        self.particle_pool.set_count(0)
+        """InitParticles: every slot dead, every index in the particle pool, slot 0 on top."""
+        self.particle_pool.set_count(self.count)
         self.program.kernel("InitParticles").over(
-            self.count,
-            GROUP_SIZE,
-            self.particles.read.data,
-            np.int32(self.count),
-            self.particle_pool.counter.data,
-            self.particle_pool.items.data,
+            self.count, GROUP_SIZE, self.particles.read.data, np.int32(self.count), self.particle_pool.items.data
         )
 
     def emit_particles(self, point=(0.0, 0.0), emit_count: int | None = None, time: float | None = None) -> int:
@@ -273,28 +275,26 @@ class ParticleSimulation(BaseSimulation):
         self.particles.swap()
 
     def _neighbour_grid(self) -> UniformGrid:
-        """Sort the live cells into a uniform grid (cell = largest contact distance). The grid covers a box of
-        ceil(sqrt(count)) cells a side around the origin plus two cells on the low side; dead slots are parked in
-        cell (0, 0), which no live cell inside the box reaches (one outside is clamped into the border cells: still
-        exact, only slower)."""
+        """Sort the live cells into a uniform grid (cell = largest contact distance): ParticleGridKeys, then the
+        grid's counting sort; dead slots get no key. The grid has side = ceil(sqrt(count)) + 2 cells a side, from
+        -(side / 2 + 1) cells in x and y (a live cell outside is clamped into the border cells: still exact, only
+        slower)."""
         p = self.params
         cell = 2.0 * MAX_RADIUS * p.repulsion * GRID_CELL_MARGIN
         if self.grid is None or self.grid_key != (self.count, cell):
             side = max(8, math.ceil(math.sqrt(self.count)))
             origin = -0.5 * side * cell - 2.0 * cell
             self.grid = UniformGrid(self.runtime, self.count, (origin, origin), cell, (side + 2, side + 2, 1))
-            self.grid_points = self.runtime.empty(self.count, cltypes.float2)
-            self.grid_parking = cltypes.make_float2(origin + 0.5 * cell, origin + 0.5 * cell)
             self.grid_key = (self.count, cell)
-        self.program.kernel("ParticleGridPoints").over(
+        self.program.kernel("ParticleGridKeys").over(
             self.count,
             GROUP_SIZE,
             self.particles.read.data,
             np.int32(self.count),
-            self.grid_parking,
-            self.grid_points.data,
+            *self.grid.geometry_args(),
+            self.grid.hash_keys,
         )
-        self.grid.build(self.grid_points, self.count, stride=2, offset=0)
+        self.grid.sort(self.count)
         return self.grid
 
     def get_dividable_particles(self) -> None:
@@ -376,6 +376,29 @@ class ParticleSimulation(BaseSimulation):
         self._divide_if_due(self.time + dt)
 
     # {{{ state
+
+    def live_slot_ends(self) -> tuple[int, int]:
+        """(particles, edges): one past the last live particle slot (or cell a live edge names) and live edge slot,
+        from LiveSlotEnds in one device read. The pools hand out slots from 0 up, so these follow the live counts."""
+        self.slot_ends.fill(0)
+        self.program.kernel("LiveSlotEnds").over(
+            self.count,
+            GROUP_SIZE,
+            self.particles.read.data,
+            self.edges.data,
+            np.int32(self.count),
+            np.int32(self.count if self.has_edges else 0),
+            self.slot_ends.data,
+        )
+        ends = self.runtime.read_back(self.slot_ends)
+        return int(ends[0]), int(ends[1])
+
+    def live_records(self) -> tuple[np.ndarray, np.ndarray]:
+        """The Particle and Edge records of the live prefixes (``live_slot_ends``) for the views: page-locked host
+        copies (``Runtime.read_back``) that the next call overwrites. Every live cell and edge is in them."""
+        particles, edges = self.live_slot_ends()
+        read = self.runtime.read_back
+        return read(self.particles.read, particles), read(self.edges, edges)
 
     def particle_records(self) -> np.ndarray:
         """The Particle records (count,) of PARTICLE_DTYPE: the newest state (Read)."""
@@ -468,15 +491,10 @@ class Simulation(ParticleSimulation):
     # {{{ edge kernels, in the book's order
 
     def init_edges(self) -> None:
-        """InitEdges: every edge dead, every index appended to the edge pool."""
-        self.edge_pool.set_count(0)
+        """InitEdges: every edge dead, every index in the edge pool, slot 0 on top."""
+        self.edge_pool.set_count(self.count)
         self.program.kernel("InitEdges").over(
-            self.count,
-            GROUP_SIZE,
-            self.edges.data,
-            np.int32(self.count),
-            self.edge_pool.counter.data,
-            self.edge_pool.items.data,
+            self.count, GROUP_SIZE, self.edges.data, np.int32(self.count), self.edge_pool.items.data
         )
 
     def update_edges(self) -> None:
@@ -491,10 +509,25 @@ class Simulation(ParticleSimulation):
         )
 
     def spring_edges(self) -> None:
-        """SpringEdges: every live cell adds -+force / links of its edges to its velocity (in place on Read)."""
-        self.program.kernel("SpringEdges").over(
-            self.count, GROUP_SIZE, self.particles.read.data, self.edges.data, np.int32(self.count)
+        """SpringEdges: every live cell adds -+force / links of its edges to its velocity (in place on Read).
+        search=grid: SpringEdges_sorted, the same sums over each cell's own edges (``_edge_ends``)."""
+        args = (self.particles.read.data, self.edges.data, np.int32(self.count))
+        if self.params.search == "grid":
+            ends = self._edge_ends()
+            self.program.kernel("SpringEdges_sorted").over(self.count, GROUP_SIZE, *args, *ends.search_args())
+        else:
+            self.program.kernel("SpringEdges").over(self.count, GROUP_SIZE, *args)
+
+    def _edge_ends(self) -> UniformGrid:
+        """Each cell's live edge ends in edge order: EdgeEndKeys, then the uniform grid's counting sort with a
+        particle slot for a grid cell (2 x count keys, count cells; the geometry is unused)."""
+        if self.edge_ends is None:
+            self.edge_ends = UniformGrid(self.runtime, 2 * self.count, (0.0, 0.0), 1.0, (self.count, 1, 1))
+        self.program.kernel("EdgeEndKeys").over(
+            self.count, GROUP_SIZE, self.edges.data, np.int32(self.count), self.edge_ends.hash_keys
         )
+        self.edge_ends.sort(2 * self.count)
+        return self.edge_ends
 
     def get_dividable_edges(self) -> None:
         """GetDividableEdges: reset the dividable pool, append every live edge whose two cells may divide."""

@@ -1,9 +1,11 @@
 """Cellular growth views (vol.3 ch.4): coloured discs (the particle shader), white edge lines behind them (the edge
 shader, additive) and lit sphere impostors (ParticleSphere.shader of CellularGrowthSphere).
 
-Every frame the particle and edge records go as they are into two shader storage buffers (std430 keeps the 32- and
-20-byte layouts); the shaders draw one quad per particle slot and one line per edge slot, instanced over the whole
-capacity as the book's DrawMeshInstancedIndirect does, and read their records by instance id.
+Every frame the particle and edge records of the live prefixes (``live_records``: the pools hand out slots from 0
+up, so every live cell and edge is there) go as they are into two shader storage buffers (std430 keeps the 32- and
+20-byte layouts); the shaders draw one quad per particle slot and one line per edge slot of those prefixes, instanced
+(the book's DrawMeshInstancedIndirect draws the whole capacity), and read their records by instance id. A frame then
+moves and draws what lives, not the capacity.
 """
 
 from __future__ import annotations
@@ -39,6 +41,8 @@ GROW_STEP = 0.05
 """The + and - keys change grow by this much."""
 SSBO_BINDINGS = {"particles": 0, "edges": 1}
 """Storage-buffer binding points (include/cellular_growth.glsl)."""
+BUFFER_HEADROOM = 1.5
+"""A storage buffer that no longer holds the growing live prefix is made this many times larger."""
 
 
 @dataclass
@@ -101,7 +105,7 @@ class View(BaseView):
         self.disc_vao = ctx.vertex_array(self.disc_program, [(self.quad, "2f", "in_corner")])
         self.sphere_vao = ctx.vertex_array(self.sphere_program, [(self.quad, "2f", "in_corner")])
         self.edge_vao = ctx.vertex_array(self.edge_program, [])
-        self.buffers = {name: GrowableBuffer(ctx, min_bytes=32) for name in SSBO_BINDINGS}
+        self.buffers = {name: GrowableBuffer(ctx, BUFFER_HEADROOM, min_bytes=32) for name in SSBO_BINDINGS}
         self.lower, self.upper = np.array([-1.0, -1.0]), np.array([1.0, 1.0])
         self.largest_reach = 0.0
         self.camera = None
@@ -130,8 +134,7 @@ class View(BaseView):
     # {{{ GL
 
     def upload(self) -> None:
-        parts = self.sim.particle_records()
-        edges = self.sim.edge_records()
+        parts, edges = self.sim.live_records()  # page-locked prefixes, straight to GL
         self.buffers["particles"].write(parts)
         self.buffers["edges"].write(edges)
         self.count, self.edge_slots = len(parts), len(edges)
