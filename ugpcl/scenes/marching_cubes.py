@@ -134,7 +134,7 @@ class Simulation(BaseSimulation):
         self.field = rt.zeros((self.n + 1) ** 3, np.float32)
         self.pool = Pool(rt, p.triangle_capacity or CAPACITY_PER_FACE_CELL * self.n**2, TRIANGLE_DTYPE, "triangles")
         self.cell_ntri = None  # the two-pass buffers, made on first use
-        self.draw_device = self.draw_host = None  # draw_vertices' buffers, made on first use (a view's, sized to it)
+        self.draw_device = None  # draw_vertices' packed triangles, made on first use (a view's, sized to it)
         self.scan_levels: dict[int, tuple] = {}
         self.field_time = p.time
         self.overflowed = False  # whether the last frame needed a bigger pool
@@ -274,29 +274,15 @@ class Simulation(BaseSimulation):
     def draw_vertices(self) -> np.ndarray:
         """The frame's triangles as the viewer's mesh draw reads them: (3 T, VERTEX_FLOATS) float32, each corner's
         position and normal, in pool order (PackVertices). Only the frame's T triangles cross to the host, 72 bytes
-        each, into pinned host memory (the DMA path; pageable memory is staged by the driver). The result is a view
-        of that memory: the next call overwrites it."""
+        each, into page-locked memory (``Runtime.read_back``): the next call overwrites the result."""
         count = self.frame_counts[-1]  # polygonize read the pool's counter: no second device read
-        if self.draw_host is None or len(self.draw_host) < 3 * count:
-            self._make_draw_buffers(min(self.pool.capacity, math.ceil(count * GROWTH)))
-        host = self.draw_host[: 3 * count]
+        if self.draw_device is None or len(self.draw_device) < 3 * count:  # grows as the pool does, never past it
+            triangles = min(self.pool.capacity, math.ceil(count * GROWTH))
+            self.draw_device = self.runtime.empty((3 * triangles, VERTEX_FLOATS), np.float32)
         if count:
-            device = self.draw_device
-            self.program.kernel("PackVertices").over(count, FIELD_GROUP, self.pool.items.data, np.int32(count), device)
-            cl.enqueue_copy(self.runtime.queue, host, device)  # host.nbytes = 72 T bytes from the start
-        return host
-
-    def _make_draw_buffers(self, triangles: int) -> None:
-        """PackVertices' output on the device and its pinned host copy, for ``triangles`` triangles: a buffer the
-        host can page-lock (ALLOC_HOST_PTR), mapped once and kept mapped; dropping the array unmaps it."""
-        rt, shape = self.runtime, (3 * triangles, VERTEX_FLOATS)
-        self.draw_host = None  # the old mapping goes first
-        self.draw_device = rt.empty(shape, np.float32).data
-        flags = cl.mem_flags.READ_WRITE | cl.mem_flags.ALLOC_HOST_PTR
-        pinned = cl.Buffer(rt.context, flags, self.draw_device.size)
-        self.draw_host, _ = cl.enqueue_map_buffer(
-            rt.queue, pinned, cl.map_flags.READ | cl.map_flags.WRITE, 0, shape, np.float32
-        )
+            pack = self.program.kernel("PackVertices")
+            pack.over(count, FIELD_GROUP, self.pool.items.data, np.int32(count), self.draw_device)
+        return self.runtime.read_back(self.draw_device, 3 * count)
 
     def field_array(self) -> np.ndarray:
         """The sampled field as (N+1, N+1, N+1) float32 indexed [z, y, x]."""
