@@ -8,7 +8,8 @@
 //                     memory and no barriers (variant=lanes; what variant=auto runs on CPU devices, PoCL)
 //      ForceCS_grid   the same sums over the boids in the 27 grid cells around each boid (the chapter's summary:
 //                     "a grid would make the neighbour search faster"); the grid comes from grid.cl, built by
-//                     ugpcl.grid.UniformGrid on the positions with cell size = the largest radius
+//                     ugpcl.grid.UniformGrid on the positions with cell size = the largest radius, and the boids
+//                     are read from its cell-ordered copy (GridCopyItemsInCellOrder), one work-item per slot
 //   2. IntegrateCS    boid_data, boid_force -> boid_data: wall avoidance, explicit Euler, |velocity| <= max_speed
 // Build defines: SIMULATION_BLOCK_SIZE = work-group size = tile length (book: 256).
 // Differences from the book: n need not be a multiple of the block size (padding work-items run every barrier
@@ -97,21 +98,90 @@ inline float4 steering_force(const Neighbourhood* nb, const Rules* r, float3 p_p
      max_speed, max_steer_force, separate_weight, alignment_weight, cohesion_weight,                        \
      fmax(separate_radius * separate_radius, fmax(alignment_radius * alignment_radius, cohesion_radius * cohesion_radius))}
 
+// 1/x for ForceCS's pairs. NVIDIA compiles native_recip to div.approx.f32, which keeps subnormal inputs: seven
+// instructions around the one MUFU.RCP that rcp.approx.ftz.f32 is. meet_in_tile never passes a subnormal (its near
+// test), so on NVIDIA, whose compiler alone defines cl_nv_pragma_unroll, that PTX instruction is used (H200,
+// N = 65536: ForceCS 3.7 ms instead of 5.0); every other device gets native_recip.
+#ifdef cl_nv_pragma_unroll
+inline float pair_recip(float x) {
+    float r;
+    asm("rcp.approx.ftz.f32 %0, %1;" : "=f"(r) : "f"(x));
+    return r;
+}
+#else
+inline float pair_recip(float x) { return native_recip(x); }
+#endif
+
+// ForceCS's pair once diff and dist2 are known: meet()'s sums, each under an if that NVIDIA compiles to predicated
+// adds (no 0/1 weight to multiply by, no select of the reciprocal). Only cohesion counts its neighbours: separation
+// and alignment steer towards their mean's direction, which is their sum's, so ForceCS starts their counts at 1.
+// wide_rules: alignment and cohesion share the widest radius (the book's 2, 2 and 1), so one test serves both; it is
+// a constant at each call of meet_tile, which is compiled once for each value.
+// Book: dist > 0. Here dist2 >= FLT_MIN, which also leaves out pairs closer than 1e-19 (a subnormal dist2).
+inline void meet_in_tile(Neighbourhood* nb, const Rules* r, float3 diff, float dist2, float3 n_position,
+                         float3 n_velocity, const bool wide_rules) {
+    const bool near = dist2 >= FLT_MIN;  // not itself, nor a coincident boid
+    const bool sep = near && dist2 <= r->separate_radius2;
+    const bool ali = near && dist2 <= r->alignment_radius2;
+    const bool coh = wide_rules ? ali : near && dist2 <= r->cohesion_radius2;
+    const float inv = pair_recip(dist2);  // before the ifs: NVIDIA's asm would stay inside one, as a branch
+    if (sep) nb->sep_pos_sum += diff * inv;  // book: normalize(diff) / dist
+    if (ali) nb->ali_vel_sum += n_velocity;
+    if (coh) {
+        nb->coh_pos_sum += n_position;
+        nb->coh_count += 1.0f;
+    }
+}
+
+// One tile's neighbours in index order, TILE_CHUNK at a time: a chunk's positions are read from __local memory and
+// its squared distances computed together (the loads in flight at once), and a work-item whose whole chunk lies
+// outside every radius skips its pairs (most chunks once the flock has spread out; a warp skips when all its
+// work-items do). 8 keeps ForceCS under 128 registers on NVIDIA: two work-groups of 256 per multiprocessor.
+#define TILE_CHUNK 8
+inline void meet_tile(Neighbourhood* nb, const Rules* r, float3 p_position, const __local Boid* tile, int tile_len,
+                      const bool wide_rules) {
+    int t = 0;
+    for (; t + TILE_CHUNK <= tile_len; t += TILE_CHUNK) {
+        float3 diff[TILE_CHUNK];
+        float dist2[TILE_CHUNK];
+        bool outside = true;  // every pair of the chunk outside every radius
+#pragma unroll
+        for (int k = 0; k < TILE_CHUNK; k++) {
+            diff[k] = p_position - tile[t + k].position.xyz;
+            dist2[k] = diff[k].x * diff[k].x + diff[k].y * diff[k].y + diff[k].z * diff[k].z;
+            outside = outside & (dist2[k] > r->max_radius2);  // & (not &&): one compare each, no branch
+        }
+        if (outside) continue;
+#pragma unroll
+        for (int k = 0; k < TILE_CHUNK; k++)
+            meet_in_tile(nb, r, diff[k], dist2[k], tile[t + k].position.xyz, tile[t + k].velocity.xyz, wide_rules);
+    }
+    for (; t < tile_len; t++) {  // the end of a last tile that is no whole number of chunks
+        const float3 diff = p_position - tile[t].position.xyz;
+        const float dist2 = diff.x * diff.x + diff.y * diff.y + diff.z * diff.z;
+        meet_in_tile(nb, r, diff, dist2, tile[t].position.xyz, tile[t].velocity.xyz, wide_rules);
+    }
+}
+
 __kernel __attribute__((reqd_work_group_size(SIMULATION_BLOCK_SIZE, 1, 1)))
 void ForceCS(const __global Boid* boid_data, __global float4* boid_force, int n, RULES_ARGS) {
     __local Boid tile[SIMULATION_BLOCK_SIZE];  // book: groupshared BoidData boid_data[SIMULATION_BLOCK_SIZE]
     const Rules rules = RULES_INIT;
+    const bool wide_rules = rules.alignment_radius2 == rules.cohesion_radius2 && rules.cohesion_radius2 == rules.max_radius2;
     const int p_id = get_global_id(0);
     const int lid = get_local_id(0);
     const Boid me = boid_data[min(p_id, n - 1)];  // padding work-items (p_id >= n) borrow a real boid, write nothing
-    Neighbourhood nb = {(float3)(0.0f), (float3)(0.0f), (float3)(0.0f), 0, 0, 0};
+    Neighbourhood nb = {(float3)(0.0f), (float3)(0.0f), (float3)(0.0f), 1, 1, 0};  // counts: see meet_in_tile
 
+    Boid next = boid_data[min(lid, n - 1)];  // this work-item's record of the first tile (past n: a duplicate never read)
     for (int base = 0; base < n; base += SIMULATION_BLOCK_SIZE) {
-        tile[lid] = boid_data[min(base + lid, n - 1)];  // past n: a duplicate that the loop below never reads
-        barrier(CLK_LOCAL_MEM_FENCE);                   // tile complete before anyone reads it
+        tile[lid] = next;
+        barrier(CLK_LOCAL_MEM_FENCE);  // tile complete before anyone reads it
+        // the next tile's record, on its way from global memory while this tile's pairs are met
+        if (base + SIMULATION_BLOCK_SIZE < n) next = boid_data[min(base + SIMULATION_BLOCK_SIZE + lid, n - 1)];
         const int tile_len = min(SIMULATION_BLOCK_SIZE, n - base);
-        // unrolled by 8: the tile's loads issue ahead of the sums (2-3 % on the H100 at N = 65536)
-        __attribute__((opencl_unroll_hint(8))) for (int t = 0; t < tile_len; t++) meet(&nb, &rules, me.position.xyz, tile[t].position.xyz, tile[t].velocity.xyz);
+        if (wide_rules) meet_tile(&nb, &rules, me.position.xyz, tile, tile_len, true);
+        else meet_tile(&nb, &rules, me.position.xyz, tile, tile_len, false);
         barrier(CLK_LOCAL_MEM_FENCE);  // everyone done reading before the next iteration overwrites the tile
     }
     if (p_id < n) boid_force[p_id] = steering_force(&nb, &rules, me.position.xyz, me.velocity.xyz);
@@ -195,20 +265,22 @@ __kernel void ForceCS_cpu(const __global Boid* boid_data, __global float4* boid_
 
 // Cell size >= every radius, so the 3x3x3 cells around a boid hold every neighbour that counts. Neighbours are
 // visited cell by cell (not in index order as above): sums agree with ForceCS up to float rounding.
-__kernel void ForceCS_grid(const __global Boid* boid_data, __global float4* boid_force, int n, RULES_ARGS,
+// sorted_boids = boid_data in the grid's cell order: work-item k takes the boid in slot k (boid grid_item(keys[k]),
+// whose force it writes), so the work-items of a cell read the same neighbours from consecutive addresses.
+__kernel void ForceCS_grid(const __global Boid* sorted_boids, __global float4* boid_force, int n, RULES_ARGS,
                            float4 origin, float cell_size, int4 dims, const __global ulong* keys,
                            const __global int* cell_start, const __global int* cell_end) {
-    const int p_id = get_global_id(0);
-    if (p_id >= n) return;
+    const int p_slot = get_global_id(0);
+    if (p_slot >= n) return;
     const Rules rules = RULES_INIT;
-    const Boid me = boid_data[p_id];
+    const Boid me = sorted_boids[p_slot];
     Neighbourhood nb = {(float3)(0.0f), (float3)(0.0f), (float3)(0.0f), 0, 0, 0};
     const int4 home = grid_cell_coord(me.position.xyz, origin.xyz, cell_size, dims);
     GRID_FOR_EACH_NEIGHBOUR_KEY(k, home, dims, cell_start, cell_end) {
-        const Boid other = boid_data[grid_item(keys[k])];
+        const Boid other = sorted_boids[k];
         meet(&nb, &rules, me.position.xyz, other.position.xyz, other.velocity.xyz);
     }
-    boid_force[p_id] = steering_force(&nb, &rules, me.position.xyz, me.velocity.xyz);
+    boid_force[grid_item(keys[p_slot])] = steering_force(&nb, &rules, me.position.xyz, me.velocity.xyz);
 }
 
 __kernel void IntegrateCS(__global Boid* boid_data, const __global float4* boid_force, int n, float dt,

@@ -126,6 +126,35 @@ def test_force_cs_with_smaller_blocks_matches_reference(runtime, block, seed):
     assert np.allclose(state["force"][usable], expected[usable], rtol=1e-4, atol=1e-5)
 
 
+# ForceCS tests each radius on its own unless alignment and cohesion share the widest one (the book's radii, which
+# every test above uses): that path too, with each rule's radius the widest in turn; 300 = a tile, a partial tile and
+# a partial chunk of 8
+@pytest.mark.parametrize("separate, alignment, cohesion", [(1.0, 2.5, 1.5), (1.0, 1.5, 2.5), (2.5, 1.0, 1.0)])
+def test_tiled_force_cs_with_other_radii_matches_reference(runtime, separate, alignment, cohesion, seed):
+    radii = {
+        "separate_neighborhood_radius": separate,
+        "alignment_neighborhood_radius": alignment,
+        "cohesion_neighborhood_radius": cohesion,
+    }
+    sim = make(runtime, 300, seed, variant="tiled", **radii)
+    sim.set_boids(*spread_state(300, seed, half_size=3.0))  # a few boids within 1, most within 2.5
+    sim.force_cs()
+    state = sim.state()
+    expected = force_reference(state["position"], state["velocity"], sim.params)
+    usable = ~ambiguous_boids(state["position"], sim.params)
+    actual, wanted = state["force"][usable], expected[usable]
+    assert np.allclose(actual, wanted, rtol=1e-4, atol=1e-5), first_mismatch(actual, wanted, 1e-4, 1e-5)
+
+
+def test_tiled_force_cs_takes_pairs_closer_than_1e_19_for_coincident(runtime):
+    """ForceCS's near test is dist^2 >= FLT_MIN (the book's dist > 0 less the subnormal squares, whose reciprocal
+    NVIDIA's rcp.approx.ftz makes infinite): two boids 1e-20 apart ignore each other and feel no force."""
+    sim = make(runtime, 2, variant="tiled")
+    sim.set_boids([[1e-20, 0.0, 0.0], [0.0, 0.0, 0.0]], [[0.5, 0, 0], [0, 0.5, 0]])
+    sim.force_cs()
+    np.testing.assert_array_equal(sim.state()["force"], 0.0)
+
+
 def recording_launches(sim, monkeypatch) -> list[str]:
     """The names of the kernels ``sim`` fetches from its program from now on (one fetch per launch)."""
     launched, kernel = [], sim.program.kernel
@@ -154,11 +183,12 @@ def test_each_variant_matches_reference(runtime, variant, n, start, seed, monkey
     naive = make(runtime, n, seed, variant="naive")
     naive.set_boids(state["position"], state["velocity"])
     naive.force_cs()
-    # neighbours in index order in the all-pairs kernels: tiled equals naive up to compiler contraction (bit for bit
-    # on PoCL); lanes' float16 arithmetic is contracted differently by PoCL from n = 257 on (a few ulp in the sums,
-    # amplified by steer's normalisation: up to 2e-6 over 39 spread and book starts, hence 1e-5); the grid visits
-    # them in cell order: equal up to float rounding of the sums
-    rtol, atol = {"tiled": (1e-6, 1e-6), "lanes": (1e-5, 1e-5), "naive": (0.0, 0.0), "grid": (1e-4, 1e-5)}[variant]
+    # neighbours in index order in the all-pairs kernels: tiled has naive's sums but steers separation and alignment
+    # by their sum instead of their mean (the same direction; a few ulp apart after steer's normalisation: up to
+    # 1e-6 over 72 spread and book starts on PoCL, hence 1e-5); lanes' float16 arithmetic is contracted differently
+    # by PoCL from n = 257 on (a few ulp in the sums, amplified by steer's normalisation: up to 2e-6 over 39 spread
+    # and book starts, hence 1e-5); the grid visits them in cell order: equal up to float rounding of the sums
+    rtol, atol = {"tiled": (1e-5, 1e-5), "lanes": (1e-5, 1e-5), "naive": (0.0, 0.0), "grid": (1e-4, 1e-5)}[variant]
     np.testing.assert_allclose(state["force"], naive.state()["force"], rtol=rtol, atol=atol)
 
 
@@ -385,9 +415,16 @@ def test_bad_dt_is_refused(runtime):
 
 
 @pytest.mark.gl
-def test_view_draws_boids_where_they_are(runtime, gl):
+@pytest.mark.parametrize("shape", ["cubes", "points"])
+def test_view_draws_boids_where_they_are(runtime, gl, shape, monkeypatch):
+    """Each boid's centre pixel is drawn and nothing far from every boid; as instanced cubes, or as one point each
+    (what the view draws above POINT_BOIDS boids: lowered here to draw these 24 as points)."""
+    import ugpcl.viewer.views.boids as boids_view
     from ugpcl.viewer.offscreen import frame
     from ugpcl.viewer.views import create_view
+
+    if shape == "points":
+        monkeypatch.setattr(boids_view, "POINT_BOIDS", 0)
 
     scene = get("boids")
     rng = np.random.default_rng(3)
@@ -404,7 +441,7 @@ def test_view_draws_boids_where_they_are(runtime, gl):
     query = gl.query(primitives=True)
     with query:
         pixels = frame(size).render(view, camera)
-    assert query.primitives == 12 * n, "one cube (12 triangles) per boid"
+    assert query.primitives == (12 * n if shape == "cubes" else n), "one cube (12 triangles) or one point per boid"
     mask = foreground(pixels, view.background)
     # project every boid centre with the camera and look at that pixel
     clip = (camera.projection() @ camera.view() @ np.column_stack([position, np.ones(n)]).T).T
@@ -464,5 +501,5 @@ def test_kernels_on_oclgrind(oclgrind, seed):
     np.testing.assert_allclose(lanes.state()["position"], naive.state()["position"], rtol=1e-6, atol=1e-6)
     grid = Simulation(oclgrind, Params(max_object_num=300, variant="grid"), seed)
     grid.set_boids(*spread_state(300, seed, half_size=1.5))
-    grid.step()  # GridHash, the scan, GridScatter, GridSortCells, ForceCS_grid
+    grid.step()  # GridHash, the scan, GridScatter, GridSortCells, GridCopyItemsInCellOrder, ForceCS_grid
     np.testing.assert_allclose(grid.state()["position"], naive.state()["position"], rtol=1e-5, atol=1e-5)

@@ -135,12 +135,13 @@ class Simulation(BaseSimulation):
         """ForceCS (ForceCS_naive, ForceCS_grid): steering force of every boid against its neighbours."""
         variant = self.params.variant
         name = self.force_kernel()
-        grid_args = ()
+        boids, grid_args = self.boid_data, ()
         if variant == "grid":
             grid = self._neighbour_grid()
             grid.build(self.boid_data, self.n, stride=BOID_DTYPE.itemsize // 4, offset=4)  # floats 4..6: position
-            grid_args = (*grid.geometry_args(), *grid.search_args())
-        args = (self.boid_data.data, self.boid_force.data, np.int32(self.n), *self._rules(), *grid_args)
+            grid.copy_in_cell_order(self.boid_data, self.sorted_boids, BOID_DTYPE.itemsize)
+            boids, grid_args = self.sorted_boids, (*grid.geometry_args(), *grid.search_args())
+        args = (boids.data, self.boid_force.data, np.int32(self.n), *self._rules(), *grid_args)
         kernel = self.program.kernel(name)
         if name == "ForceCS_cpu":
             kernel((-(-self.n // CPU_LANES),), None, *args)  # one work-item per CPU_LANES boids, any work-group
@@ -154,7 +155,8 @@ class Simulation(BaseSimulation):
 
     def _neighbour_grid(self) -> UniformGrid:
         """A grid over the wall box with cells as large as the largest radius (coarser if that would need more
-        than MAX_GRID_CELLS cells); boids outside the box fall in its border cells, which keeps the search exact."""
+        than MAX_GRID_CELLS cells); boids outside the box fall in its border cells, which keeps the search exact.
+        Made with it: ``sorted_boids``, the boids in the grid's cell order, which ForceCS_grid reads."""
         p = self.params
         radius = max(p.separate_neighborhood_radius, p.alignment_neighborhood_radius, p.cohesion_neighborhood_radius)
         size = np.asarray(p.wall_size, float)
@@ -163,6 +165,7 @@ class Simulation(BaseSimulation):
         if self.grid is None or self.grid_key != key:
             lower = np.asarray(p.wall_center) - size / 2
             self.grid = UniformGrid.covering(self.runtime, self.n, lower, lower + size, cell)
+            self.sorted_boids = self.runtime.empty(self.n, BOID_DTYPE)
             self.grid_key = key
         return self.grid
 

@@ -9,7 +9,7 @@ import moderngl
 import numpy as np
 
 from ..camera import OrbitCamera
-from ..gl import GrowableBuffer, Lines, load_program, set_camera
+from ..gl import GrowableBuffer, Lines, load_program, set_camera, set_uniform
 from ..meshes import box_edges, cube
 from . import Key
 from . import View as BaseView
@@ -24,6 +24,9 @@ FIT_POINTS = 65536
 """Above this many boids a picture frames the corners of their bounding box instead of every boid: the box holds
 them all, so they all stay in the frame (a frame is a convex set), and refitting a million points each frame cost
 300 ms on the H200 machine's host."""
+POINT_BOIDS = 65536
+"""Above this many boids each is drawn as a point (boids_points.vert) instead of a cube: a flock that large is a
+pixel or two a boid on screen, and 36 vertices a boid held a million-boid frame at 61 ms on the lent H200."""
 CLOSE_UP_FILL = 0.6
 """Share of the half-frame the boids fill in a close-up (``OrbitCamera.fit``): room around a ball of boids, and a
 camera far enough that the near ones are not much larger than the far ones."""
@@ -56,6 +59,7 @@ class View(BaseView):
     def __init__(self, ctx: moderngl.Context, sim):
         super().__init__(ctx, sim)
         self.program = load_program(ctx, "boids")
+        self.point_program = load_program(ctx, "boids", vertex="boids_points")
         vertices, indices = cube()
         self.mesh_vbo = ctx.buffer(vertices.tobytes())
         self.mesh_ibo = ctx.buffer(indices.tobytes())
@@ -119,6 +123,9 @@ class View(BaseView):
                 ],
                 index_buffer=self.mesh_ibo,
             )
+            self.point_vao = self.ctx.vertex_array(
+                self.point_program, [(self.instances.buffer, "4f 4f", "in_velocity", "in_offset")]
+            )
         p = self.sim.params
         self.box.set(box_edges(p.wall_center, p.wall_size))
 
@@ -127,11 +134,19 @@ class View(BaseView):
         if isinstance(camera, PictureCamera):  # a video's frames follow the boids
             self.frame(camera)
         self.ctx.enable(moderngl.DEPTH_TEST)
-        set_camera(self.program, camera)
-        self.program["object_scale"].value = p.object_scale
-        self.program["color_by_speed"].value = self.color_by_speed
-        self.program["max_speed"].value = p.max_speed
-        self.vao.render(moderngl.TRIANGLES, instances=self.sim.n)
+        points = self.sim.n > POINT_BOIDS
+        program = self.point_program if points else self.program
+        set_camera(program, camera)
+        set_uniform(program, "object_scale", p.object_scale)
+        set_uniform(program, "color_by_speed", self.color_by_speed)
+        set_uniform(program, "max_speed", p.max_speed)
+        if points:
+            self.ctx.enable(moderngl.PROGRAM_POINT_SIZE)
+            set_uniform(program, "pixels_per_unit", float(camera.projection()[1, 1] * self.ctx.viewport[3] / 2))
+            self.point_vao.render(moderngl.POINTS, vertices=self.sim.n)
+            self.ctx.disable(moderngl.PROGRAM_POINT_SIZE)
+        else:
+            self.vao.render(moderngl.TRIANGLES, instances=self.sim.n)
         if self.show_box and getattr(camera, "shows_cage", True):
             self.box.draw(camera)
 
