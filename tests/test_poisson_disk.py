@@ -1,11 +1,12 @@
 """Poisson disk sampling (vol.4 ch.7; docs/chapters/18-poisson-disk.md): Bridson's counts against an independent
 sampler written from the chapter's listings, ThrowDarts against a numpy twin, the invariants (minimum distance,
-bounds, one sample per cell), maximality after fill, the gpu density against Bridson's, determinism, headless CLI,
-views, Oclgrind."""
+bounds, one sample per cell), maximality after fill (the device fill on a fine lattice of probes too), the gpu
+density against Bridson's, determinism, headless CLI, views, Oclgrind."""
 
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -16,6 +17,7 @@ from scipy.spatial import cKDTree
 from ugpcl.geometry import poisson_disk as pd
 from ugpcl.random import key_of_seed, philox4x32, uniform01
 from ugpcl.registry import get
+from ugpcl.scenes import poisson_disk as scene
 from ugpcl.scenes.poisson_disk import R2_MARGIN, Params, Simulation
 
 UNIT = {"lo": (0.0, 0.0, 0.0), "size": (1.0, 1.0, 1.0)}
@@ -277,6 +279,77 @@ def test_fill_leaves_no_point_farther_than_r(runtime, method, dim, seed):
     assert after.state()["filled"] == len(after.points()) - len(before.points()) > 0
 
 
+def probes_of(lo, hi, step: float, random: int, seed: int) -> np.ndarray:
+    """A lattice of ``step`` over the closed box (its faces and corners included) and ``random`` uniform probes."""
+    axes = [np.linspace(a, b, int(math.ceil((b - a) / step)) + 1) for a, b in zip(lo, hi, strict=True)]
+    lattice = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, len(lo))
+    return np.concatenate([lattice, np.random.Generator(np.random.PCG64(seed)).uniform(lo, hi, (random, len(lo)))])
+
+
+DEVICE_FILL_CASES = [
+    pytest.param(2, 0.05, (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), id="2d-square"),
+    pytest.param(2, 0.03, (-3.0, 7.0, 0.0), (1.0, 0.37, 1.0), id="2d-offset-strip"),  # top cells stick out of the box
+    pytest.param(3, 0.15, (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), id="3d-cube"),
+    pytest.param(3, 0.2, (5.0, -1.0, 2.0), (1.0, 0.6, 0.45), id="3d-offset-box"),
+]
+
+
+@pytest.mark.parametrize("dim, r, lo, size", DEVICE_FILL_CASES)
+@pytest.mark.parametrize("seed_offset", [0, 1, 2])
+def test_device_fill_is_maximal_on_a_fine_lattice(runtime, dim, r, lo, size, seed, seed_offset):
+    """MarkUncovered and FillDarts until no box is left: no probe of a lattice of step r/16 (r/8 in 3-D), faces and
+    corners included, nor of 100 000 uniform probes is farther than r from a sample; every pair is r apart; the
+    darts' samples are kept, and each fill sample went into a cell the darts left empty.
+
+    The kernel's promise is r (1 + 2^-20) but for the finest boxes (r 2^-16 more in 2-D, r 2^-11 in 3-D; see
+    clkernels/poisson_disk.cl); a probe between that and r would have to land in such a box's sliver, far below
+    these lattices' steps. A fill that stops early, drops a box a single disc does not cover, or keeps a dart within
+    r of a sample fails here (seen: FillDarts without its near_sample test, MarkUncovered with 1.2 r2_reject)."""
+    s = seed + seed_offset
+    darts = sampled(runtime, s, dim=dim, r=r, lo=lo, size=size, method="gpu")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the fill's cap warning would be a failure
+        filled = sampled(runtime, s, dim=dim, r=r, lo=lo, size=size, method="gpu", fill=True)
+    points = filled.points()
+    assert filled.fill_boxes[-1] == 0 and filled.stats()["fill boxes left"] == 0
+    probes = probes_of(filled.lo, filled.hi, r / (16 if dim == 2 else 8), 100_000, s)
+    distance = cKDTree(points).query(probes)[0]
+    gap_before = cKDTree(darts.points()).query(probes)[0] > r
+    assert gap_before.any(), "the darts alone should leave a gap for the test to mean something"
+    assert distance.max() <= r, f"probe {probes[distance.argmax()]} is {distance.max() / r:.6f} r from every sample"
+    assert_min_distance(points, r)
+    assert ((points >= filled.lo) & (points < filled.hi)).all()
+    np.testing.assert_array_equal(points[: len(darts.points())], darts.points())  # the darts' samples, unchanged
+    cell = pd.cell_size(r, dim)
+    before = {tuple(c) for c in np.floor((darts.points() - darts.lo) / cell).astype(int)}
+    after = np.floor((filled.gaps - filled.lo) / cell).astype(int)
+    assert len(filled.gaps) > 0 and not before & {tuple(c) for c in after}
+    assert len({tuple(c) for c in after}) == len(after)  # one sample per cell
+
+
+def test_device_fill_says_when_its_round_cap_leaves_boxes(runtime, seed, monkeypatch):
+    monkeypatch.setattr(scene, "MAX_FILL_ROUNDS", 3)
+    with pytest.warns(RuntimeWarning, match=r"still not covered after 3 rounds .* may not be maximal"):
+        sim = sampled(runtime, seed, r=0.05, method="gpu", fill=True)
+    assert len(sim.fill_boxes) == 3 and sim.stats()["fill boxes left"] == sim.fill_boxes[-1] > 0
+    assert_min_distance(sim.points(), 0.05)  # what it placed still keeps r apart
+
+
+def test_mark_uncovered_runs_a_round_again_into_a_larger_pool(runtime, seed):
+    """A round whose boxes overflow the pool is run again into one that fits: the same boxes and choices."""
+    sim = sampled(runtime, seed, r=0.05, method="gpu")
+    sim.choice = runtime.empty(sim.cell_count, np.int32)
+    results = []
+    for capacity in (sim.cell_count, 3):
+        sim.boxes_out = runtime.empty(2 * capacity, np.int32)
+        n = sim.mark_uncovered(0, 0, False, None, sim.cell_count)
+        boxes = sorted(map(tuple, sim.boxes_out[: 2 * n].get().reshape(-1, 2)))
+        results.append((n, boxes, sim.choice.get()))
+    assert results[0][0] > 3 and sim.boxes_out.size >= 2 * results[0][0]
+    assert results[0][:2] == results[1][:2]
+    np.testing.assert_array_equal(results[0][2], results[1][2])
+
+
 def test_gpu_density_is_bridsons_within_a_few_percent(runtime, seed):
     # The book's 2-D scene: 200 x 200, r = 5. Measured (seeds 0, 1): bridson 1028, 1023 samples; gpu 1086, 1082
     # (+5.6 %: its darts are nearer saturation, 0.07 % uncovered against 0.11 %); both filled: within 3 %.
@@ -412,11 +485,14 @@ def test_3d_view_draws_shaded_spheres(runtime, gl, seed):
 
 @pytest.mark.oclgrind
 def test_throw_darts_on_oclgrind(oclgrind, runtime, seed):
-    for dim in (2, 3):
-        params = Params(**UNIT, dim=dim, r=0.3 if dim == 2 else 0.6, method="gpu", k=2)
+    """ThrowDarts, and with fill the MarkUncovered and FillDarts rounds, then CompactSamples."""
+    for dim, fill in ((2, False), (3, False), (2, True), (3, True)):
+        params = Params(**UNIT, dim=dim, r=0.3 if dim == 2 else 0.6, method="gpu", k=2, fill=fill)
         on_grind = Simulation(oclgrind, params, seed)
         on_grind.finish()
         on_pocl = Simulation(runtime, params, seed)
         on_pocl.finish()
         assert len(on_grind.points()) > 3
         np.testing.assert_allclose(on_grind.points(), on_pocl.points(), rtol=0, atol=1e-6)
+        if fill:  # the fill ran rounds of boxes and placed samples
+            assert len(on_grind.gaps) > 0 and len(on_grind.fill_boxes) > 3 and on_grind.fill_boxes[-1] == 0

@@ -5,18 +5,21 @@
 each step runs ``steps_per_frame`` of its active-point steps, so the view animates the growth as the sample's
 coroutine does (0: the whole sampling in the first step, as ``ugpcl run``). ``method=gpu`` (not in the book, which
 notes Bridson's method has no parallel form) is multi-phase dart throwing on the same grid, clkernels/poisson_disk.cl:
-per step one round of ``ThrowDarts`` over the 3^n cell phases, k rounds in all, then ``CompactSamples``.
+per step one round of ``ThrowDarts`` over the 3^n cell phases, k rounds in all; with ``fill``, then (in one step)
+rounds of ``MarkUncovered`` and ``FillDarts`` (per phase) until no uncovered box is left; then ``CompactSamples``.
 
 Differences from the book: ``fill=true`` throws darts into the gaps either method leaves (about 0.1 % of the area
-after Bridson) until the sampling is maximal; ``annulus=volume`` draws candidates uniformly in the n-ball shell
-(the sample's 3-D radius is sqrt-distributed); the domain is ``lo`` and ``size`` (the sample's bottomLeft and
-topRight - bottomLeft); random numbers come from PCG64 (host) and Philox (kernel), never Unity's.
+after Bridson) until the sampling is maximal (bridson: ``pd.fill_gaps`` on the host; gpu: on the device);
+``annulus=volume`` draws candidates uniformly in the n-ball shell (the sample's 3-D radius is sqrt-distributed); the
+domain is ``lo`` and ``size`` (the sample's bottomLeft and topRight - bottomLeft); random numbers come from PCG64
+(host) and Philox (kernel), never Unity's.
 """
 
 from __future__ import annotations
 
 import math
 import time
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,7 +40,14 @@ R2_MARGIN = 1.0 + 2.0**-19
 """(1 + 2^-20)^2, rounded up: the kernel rejects darts within r * (1 + 2^-20), so float32 rounding of positions and
 squared distances (a few 2^-24 relative) never brings two samples closer than r."""
 GROUP = 64
-"""Work-group size of both kernels (no local memory: any size works)."""
+"""Work-group size of the kernels (no local memory: any size works)."""
+MAX_FILL_ROUNDS = 48
+"""Cap on the device fill's rounds (MarkUncovered + FillDarts). A round splits every box left into 2^n children
+down to the kernel's MAX_LEVEL (2^-15 of a cell in 2-D, 2^-10 in 3-D), where one more round settles every box;
+seen: 11 - 17 rounds (the square at r = 0.05 .. 0.001, the cube at 0.15 and 0.05). Hitting it leaves the sampling
+not quite maximal, which the fill says in a warning and in stats()."""
+INT_MAX = np.int32(2**31 - 1)
+"""The reset of each cell's box choice (MarkUncovered's atomic_min): larger than every key (30 bits)."""
 MIN_LENGTH = 1e-6
 """Smallest size and r: lo + size stays above lo for every |lo| <= 1e6 (one float64 step there is 1.2e-10), and r^2
 and the cell size stay far from float32's smallest normal numbers."""
@@ -60,7 +70,8 @@ class Params(BaseParams):
     annulus: str = param("area", choices=pd.ANNULI, used_only_when={"method": "bridson"})
     """Candidate distance r..2r: area = sqrt(U[r^2, 4r^2]) as the sample; volume = uniform in the n-ball shell."""
     fill: bool = False
-    """After sampling, throw darts into the uncovered gaps until none is left (maximal; not in the book)."""
+    """After sampling, throw darts into the uncovered gaps until none is left (maximal; not in the book; gpu: on the
+    device, MarkUncovered and FillDarts)."""
     steps_per_frame: int = param(0, 0, 1 << 20, live=True)
     """Sampler steps per simulation step: active points (bridson) or dart rounds (gpu); 0: all in the first step.
     The view animates with 2 (the sample: one active point per 0.01 s)."""
@@ -104,7 +115,10 @@ class Simulation(BaseSimulation):
         p = self.params
         self.lo, self.hi = p.domain
         self.gaps = np.zeros((0, p.dim))
+        """The fill's samples (bridson: fill_gaps; gpu: those FillDarts wrote), in points() after the sampler's."""
         self.filled = False
+        self.fill_boxes: list[int] = []
+        """gpu fill: the boxes MarkUncovered kept in each round (the last is 0 when the fill finished)."""
         self.active_counts: list[int] = []
         self.seconds = 0.0
         """Wall time of the sampler (and fill) so far: the view's status line."""
@@ -113,13 +127,15 @@ class Simulation(BaseSimulation):
         else:
             self._reset_gpu()
 
-    # {{{ the gpu method: ThrowDarts, CompactSamples
+    # {{{ the gpu method: ThrowDarts, MarkUncovered, FillDarts, CompactSamples
 
     def _reset_gpu(self) -> None:
         p, rt = self.params, self.runtime
         self.program = rt.program("poisson_disk", DIM=p.dim)
         self.throw_darts = self.program.kernel("ThrowDarts")
         self.compact_samples = self.program.kernel("CompactSamples")
+        self.mark_uncovered_kernel = self.program.kernel("MarkUncovered")
+        self.fill_darts_kernel = self.program.kernel("FillDarts")
         extent = self.hi - self.lo
         self.cell = pd.cell_size(p.r, p.dim)
         dims = [math.ceil(e / self.cell) for e in extent] + [1] * (3 - p.dim)
@@ -134,7 +150,9 @@ class Simulation(BaseSimulation):
         self.extent = cltypes.make_float4(*extent, *[0.0] * (4 - p.dim))
         self.key = cltypes.make_uint2(*key_of_seed(self.seed))
         self.rounds = 0
-        self._compacted: tuple[int, np.ndarray, np.ndarray] | None = None
+        self._compacted: tuple | None = None
+        self.max_level = 30 // p.dim
+        """The kernel's MAX_LEVEL: the finest fill boxes are 2^-max_level of a cell per axis."""
         phases = np.stack(np.meshgrid(*[np.arange(3)] * p.dim, indexing="ij"), -1).reshape(-1, p.dim)
         self.phases = [tuple(int(v) for v in ph) + (0,) * (3 - p.dim) for ph in phases[:, ::-1]]  # x fastest
         self.phase_dims = [
@@ -155,9 +173,70 @@ class Simulation(BaseSimulation):
             )  # fmt: skip
         self.rounds += 1
 
-    def compact(self) -> tuple[np.ndarray, np.ndarray]:
-        """CompactSamples, then a sort by cell id (append order varies): (points (N, dim) float64, cell ids)."""
-        if self._compacted is None or self._compacted[0] != self.rounds:
+    def mark_uncovered(self, fill_round: int, level: int, split: bool, boxes_in, n_in: int) -> int:
+        """MarkUncovered: the boxes of this fill round (level 0: the empty cells whole; else the children of the last
+        round's boxes, or those boxes again when not ``split``) that no single sample covers, into
+        ``self.boxes_out`` (grown and the round run again when they do not fit: the same boxes, any order), and each
+        cell's chosen box in ``self.choice``. Returns how many were kept."""
+        p = self.params
+        capacity = self.boxes_out.size // 2
+        while True:
+            self.choice.fill(INT_MAX)
+            self.counter.fill(0)
+            self.mark_uncovered_kernel.over(
+                n_in, GROUP, self.cell_used, self.cell_pts, self.dims, boxes_in, np.int32(n_in), np.int32(level),
+                np.int32(split), self.boxes_out, self.counter, np.int32(capacity), self.choice,
+                np.uint32(fill_round), self.key, np.float32(self.cell), self.extent, np.float32(p.r * p.r * R2_MARGIN),
+            )  # fmt: skip
+            kept, refused = (int(v) for v in self.counter.get())
+            if not refused:
+                return kept
+            capacity = kept + refused  # the pool was too small: the same boxes again into one that fits them
+            self.boxes_out = self.runtime.empty(2 * capacity, np.int32)
+
+    def fill_darts(self, fill_round: int, level: int, n: int) -> None:
+        """FillDarts over the n boxes of ``self.boxes_out``, once per phase (as ThrowDarts: no two darts of one
+        launch within r of each other, and each launch sees the samples the earlier ones kept)."""
+        p = self.params
+        for phase in self.phases:
+            self.fill_darts_kernel.over(
+                n, GROUP, self.cell_used, self.cell_pts, self.dims, cltypes.make_int4(*phase, 0), self.boxes_out,
+                np.int32(n), np.int32(level), self.choice, np.uint32(fill_round), self.key, np.float32(self.cell),
+                self.extent, np.float32(p.r * p.r * R2_MARGIN),
+            )  # fmt: skip
+
+    def fill_gpu(self) -> None:
+        """The fill on the device: round t = 0 marks the empty cells no sample covers whole, each later round splits
+        the boxes left into 2^n children (down to max_level, then keeps them), and every round throws darts into one
+        box per cell, until a round keeps no box (maximal) or MAX_FILL_ROUNDS ran (said in a warning)."""
+        rt = self.runtime
+        self.choice = rt.empty(self.cell_count, np.int32)
+        # (cell id, packed sub-cell) pairs, two lists: a round reads the last one's and writes the other
+        boxes_in, self.boxes_out = rt.empty(2 * self.cell_count, np.int32), rt.empty(2 * self.cell_count, np.int32)
+        n, level = self.cell_count, 0
+        for fill_round in range(MAX_FILL_ROUNDS):
+            split = fill_round > 0 and level < self.max_level
+            level += split
+            n = self.mark_uncovered(fill_round, level, split, None if fill_round == 0 else boxes_in, n)
+            self.fill_boxes.append(n)
+            if n == 0:
+                break
+            self.fill_darts(fill_round, level, n)
+            boxes_in, self.boxes_out = self.boxes_out, boxes_in
+        if n:
+            warnings.warn(
+                f"poisson_disk fill: {n} boxes of {2.0**-level:g} of a cell still not covered after {MAX_FILL_ROUNDS} "
+                "rounds (MAX_FILL_ROUNDS): the sampling may not be maximal there",
+                RuntimeWarning, stacklevel=2,
+            )  # fmt: skip
+        del self.choice, self.boxes_out  # the fill's buffers live only while it runs
+        points, _, from_fill = self.compact()
+        self.gaps = points[from_fill]
+
+    def compact(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """CompactSamples, then a sort by cell id (append order varies): (points (N, dim) float64, cell ids, True
+        where FillDarts placed the sample)."""
+        if self._compacted is None or self._compacted[0] != (self.rounds, len(self.fill_boxes)):
             self.counter.fill(0)
             self.compact_samples.over(
                 self.cell_count, GROUP, self.cell_used, self.cell_pts, np.int32(self.cell_count), self.samples_d,
@@ -166,9 +245,10 @@ class Simulation(BaseSimulation):
             n = int(self.counter.get()[0])
             cells = self.sample_cells_d[:n].get()
             order = np.argsort(cells, kind="stable")
-            local = self.samples_d[: 4 * n].get().reshape(-1, 4)[order, : self.params.dim]
-            self._compacted = (self.rounds, self.lo + local.astype(np.float64), cells[order])
-        return self._compacted[1], self._compacted[2]
+            local = self.samples_d[: 4 * n].get().reshape(-1, 4)[order]
+            points = self.lo + local[:, : self.params.dim].astype(np.float64)
+            self._compacted = ((self.rounds, len(self.fill_boxes)), points, cells[order], local[:, 3] == 1.0)
+        return self._compacted[1:]
 
     # }}}
 
@@ -197,7 +277,10 @@ class Simulation(BaseSimulation):
             else:
                 self.throw_round()
         elif not self.filled:
-            self.gaps = pd.fill_gaps(self.sampler_points(), self.lo, self.hi, self.params.r, self.seed)
+            if self.params.method == "bridson":
+                self.gaps = pd.fill_gaps(self.sampler_points(), self.lo, self.hi, self.params.r, self.seed)
+            else:
+                self.fill_gpu()
             self.filled = True
         self.seconds += time.perf_counter() - start
         return True
@@ -222,7 +305,10 @@ class Simulation(BaseSimulation):
 
     def sampler_points(self) -> np.ndarray:
         """The sampler's samples without the fill's: insertion order (bridson) or by cell (gpu)."""
-        return self.stepper.points if self.params.method == "bridson" else self.compact()[0]
+        if self.params.method == "bridson":
+            return self.stepper.points
+        points, _, from_fill = self.compact()
+        return points[~from_fill]
 
     def points(self) -> np.ndarray:
         """Every sample, (N, dim) float64: the sampler's, then the fill's."""
@@ -284,7 +370,13 @@ class Simulation(BaseSimulation):
             "sampler steps": self.sampler_steps(),
             "done": self.done,
             "packing density": round(pd.packing_density(points, self.lo, self.hi, self.params.r), 4),
-        }
+        } | self.fill_stats()
+
+    def fill_stats(self) -> dict:
+        """gpu fill: its rounds, and the boxes it left uncovered (0: maximal)."""
+        if not self.fill_boxes:
+            return {}
+        return {"fill rounds": len(self.fill_boxes), "fill boxes left": self.fill_boxes[-1]}
 
     # }}}
 
