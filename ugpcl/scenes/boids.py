@@ -112,6 +112,7 @@ class Simulation(BaseSimulation):
         self.boid_data = rt.to_device(boids)
         self.boid_force = rt.zeros(self.n, cltypes.float4)
         self.grid = None  # built on first use by variant=grid
+        self.packed = None  # PackBoidsHalf's output, made on first use (a view's)
 
     # {{{ kernels, in the book's order
 
@@ -190,6 +191,14 @@ class Simulation(BaseSimulation):
     def _step(self, dt: float) -> None:
         self.force_cs()  # book order: ForceCS, then IntegrateCS
         self.integrate_cs(dt)
+
+    def packed_boids(self):
+        """PackBoidsHalf: the boids' positions and velocities as half4 pairs, (N, 8) float16 on the device (the
+        view's copy of a large flock)."""
+        if self.packed is None:
+            self.packed = self.runtime.empty((self.n, 8), np.float16)
+        self.program.kernel("PackBoidsHalf").over(self.n, 256, self.boid_data, np.int32(self.n), self.packed)
+        return self.packed
 
     def boids(self) -> np.ndarray:
         """The raw Boid records (N,) of BOID_DTYPE, as the view uploads them."""

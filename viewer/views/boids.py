@@ -64,6 +64,7 @@ class View(BaseView):
         self.mesh_vbo = ctx.buffer(vertices.tobytes())
         self.mesh_ibo = ctx.buffer(indices.tobytes())
         self.instances = GrowableBuffer(ctx)
+        self.points = GrowableBuffer(ctx)  # a large flock's half-float copy (PackBoidsHalf)
         self.box = Lines(ctx, color=(0.0, 1.0, 1.0, 1.0))
         self.show_box, self.color_by_speed = True, False
         self.saved_weights: dict[str, float] = {}
@@ -112,20 +113,26 @@ class View(BaseView):
         camera.shows_cage = bool((clip[3] > 0).all() and (np.abs(clip[:2] / clip[3]) < CAGE_MARGIN).all())
 
     def upload(self) -> None:
-        data = self.sim.runtime.read_back(self.sim.boid_data)
-        self.positions = data["position"][:, :3]
-        if self.instances.write(data):
-            self.vao = self.ctx.vertex_array(
-                self.program,
-                [
-                    (self.mesh_vbo, "3f 3f", "in_position", "in_normal"),
-                    (self.instances.buffer, "4f 4f/i", "in_velocity", "in_offset"),
-                ],
-                index_buffer=self.mesh_ibo,
-            )
-            self.point_vao = self.ctx.vertex_array(
-                self.point_program, [(self.instances.buffer, "4f 4f", "in_velocity", "in_offset")]
-            )
+        read = self.sim.runtime.read_back
+        if self.sim.n > POINT_BOIDS:  # drawn a point each: half floats, half the bytes for GL
+            packed = read(self.sim.packed_boids())
+            self.positions = packed[:, :3]
+            if self.points.write(packed):
+                self.point_vao = self.ctx.vertex_array(
+                    self.point_program, [(self.points.buffer, "4f2 4f2", "in_offset", "in_velocity")]
+                )
+        else:
+            data = read(self.sim.boid_data)
+            self.positions = data["position"][:, :3]
+            if self.instances.write(data):
+                self.vao = self.ctx.vertex_array(
+                    self.program,
+                    [
+                        (self.mesh_vbo, "3f 3f", "in_position", "in_normal"),
+                        (self.instances.buffer, "4f 4f/i", "in_velocity", "in_offset"),
+                    ],
+                    index_buffer=self.mesh_ibo,
+                )
         p = self.sim.params
         self.box.set(box_edges(p.wall_center, p.wall_size))
 
