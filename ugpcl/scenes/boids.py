@@ -277,7 +277,12 @@ SCENES = [
         at_scale=AtScale(
             gpu={"max_object_num": 1 << 20, "variant": "grid", "start": "spread", "wall_size": (105.0, 105.0, 105.0)},
             cpu={"max_object_num": 1 << 14, "variant": "grid", "start": "spread", "wall_size": (26.0, 26.0, 26.0)},
-            loop=Animation("a million boids, spread through the box at the start, gather into streams", every=4),
+            loop=Animation(
+                "a million boids, spread through the box at the start, turning into streams",
+                every=6,
+                start=300,
+                quality=50,
+            ),
         ),
         animation=Animation("the flock turning in its box", every=3),
         preview_check=PreviewCheck(min_subject=0.02, sparse="small boids spread through their cage"),

@@ -414,7 +414,9 @@ SCENES = [
         at_scale=AtScale(
             gpu={"particle_num": 1 << 20, "search": "grid", "range": (181.02, 101.82), "ball_radius": 56.57},
             cpu={"particle_num": 1 << 14, "search": "grid", "range": (22.63, 12.73), "ball_radius": 7.07},
-            loop=Animation("a million particles: the disc falls, splashes and spreads over the floor", every=6),
+            loop=Animation(
+                "a million particles: the disc falls, splashes and spreads over the floor", every=6, quality=50
+            ),
         ),
         animation=Animation(
             "the dam break: the column falls, splashes against the far wall and settles",
