@@ -3,7 +3,7 @@
 // Host: ugpcl/scenes/space_colonization.py (Simulation).
 // Kernels, in host call order (reset: Setup, Seed, then one step; every step: Search .. Remove while the node pool
 // is not empty, then always Grow):
-//   1. Setup         all node slots -> node pool (Append), nodes[i].active = 0
+//   1. Setup         all node slots -> node pool (slot 0 on top: see Setup), nodes[i].active = 0
 //   2. Seed          seeds -> nodes (Consume a slot each): t = 1, from = -1, mass = lerp(min, max, nrand)
 //   3. Search        nodes -> attractions.nearest/found: nearest active node closer than the influence distance
 //   4. Attract       attractions, nodes -> candidates (Append): node + growth * mean unit vector to its attractions,
@@ -23,9 +23,12 @@
 //   Search_grid    as Search, visiting the 3x3x3 node-grid cells around the attraction (cell >= influence)
 //   Attract_grid   as Attract, visiting the 3x3x3 attraction-grid cells around the node (cell >= influence)
 //   Remove_grid    as Remove, visiting the 3x3x3 node-grid cells around the attraction (cell >= kill)
+// View (ugpcl, each frame of the viewer on a GPU; CPU devices count on the host):
+//   CountActiveAttractions  attractions -> active_count += the active ones (the status line's count)
 // Build defines: none (the book's [numthreads(128,1,1)] is the host's local size, and TILE below).
-// Atomics: only the Append/Consume counters of pool.h (node pool, candidates, edges). No more consumers than items:
-// Connect's work-items past connect_count (= min(free node slots, candidates), ConnectCount) return at once.
+// Atomics: the Append/Consume counters of pool.h (node pool, candidates, edges) and CountActiveAttractions' sum.
+// No more consumers than items: Connect's work-items past connect_count (= min(free node slots, candidates),
+// ConnectCount) return at once.
 // Races: none. Every kernel writes only its own record; Connect reads a parent (an active node) and writes a child
 // (a slot taken from the pool, hence inactive), so the two sets never meet. The book's Connect also rewrites the
 // parent unchanged (`_Nodes[c.node] = n1`): a no-op left out here.
@@ -38,7 +41,7 @@
 // each work-item then walks the tile: the same records in the same order with the same arithmetic, so the same
 // results bit for bit. CPU devices keep the book's loops, which PoCL runs faster (no work-group loop per tile).
 #include "grid.h"                // grid_neighbours: the one neighbour-cell loop of the sorted-key uniform grid
-#include "pool.h"                // pool_append, pool_append_index, pool_consume
+#include "pool.h"                // pool_append, pool_consume
 #include "random.h"              // nrand (the book's Random.cginc): the node masses
 #include "space_colonization.h"  // Attraction, Node, Candidate, Edge; repeats
 
@@ -61,11 +64,14 @@ inline void create_edge(volatile __global int* edge_counter, __global Edge* edge
     if (slot >= 0) edges[slot] = (Edge){a, b};
 }
 
-__kernel void Setup(__global Node* nodes, int slot_count, volatile __global int* node_pool_counter,
-                    __global int* node_pool) {
+// Book: _NodesPoolAppend.Append(i), in atomic order. ugpcl writes slot i to pool entry slot_count - 1 - i instead
+// (the host sets the pool's count to slot_count): the top of the pool is slot 0, so nodes take slots 0, 1, 2, ...
+// and, since no node is ever freed during a run, the live nodes are exactly slots [0, live nodes): the prefix the
+// views read back and draw.
+__kernel void Setup(__global Node* nodes, int slot_count, __global int* node_pool) {
     const int i = get_global_id(0);
     if (i >= slot_count) return;
-    pool_append_index(node_pool_counter, node_pool, slot_count, i);
+    node_pool[slot_count - 1 - i] = i;
     nodes[i].active = 0u;
 }
 
@@ -386,6 +392,28 @@ __kernel void Remove_grid(__global Attraction* attractions, int attraction_count
             return;
         }
     }
+}
+
+// }}}
+
+// {{{ view (ugpcl)
+
+// The number of active attractions for the viewer's status line, so that a frame reads back 4 bytes instead of every
+// attraction record (24 B each: 50 MB at side 160). Each work-group sums its flags in __local memory (a tree over
+// TILE entries) and adds its sum with one atomic_add, instead of one atomic per attraction on the same int; the host
+// clears active_count first.
+__kernel __attribute__((reqd_work_group_size(TILE, 1, 1)))
+void CountActiveAttractions(const __global Attraction* attractions, int attraction_count,
+                            volatile __global int* active_count) {
+    __local int partial[TILE];
+    const int idx = get_global_id(0), lid = get_local_id(0);
+    partial[lid] = idx < attraction_count && attractions[idx].active ? 1 : 0;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (int width = TILE / 2; width > 0; width /= 2) {
+        if (lid < width) partial[lid] += partial[lid + width];
+        barrier(CLK_LOCAL_MEM_FENCE);  // this level's sums are in before the next level reads them
+    }
+    if (lid == 0 && partial[0] > 0) atomic_add(active_count, partial[0]);
 }
 
 // }}}

@@ -6,7 +6,7 @@
 // Search .. Remove while the node pool is not empty, Grow, then Animate with the frame's bone matrices):
 //    1. SetupSkin         mesh vertices, their bones -> attractions.bone: the bone of the nearest mesh vertex
 //    2. SetupAttractions  attractions: active 1, found 0, nearest -1 (the cloud itself is kept between resets)
-//    3. Setup             all node slots -> node pool (Append), nodes[i].active = 0 (book: SetupNodes)
+//    3. Setup             all node slots -> node pool (slot 0 on top), nodes[i].active = 0 (book: SetupNodes)
 //    4. Seed              seeds, attractions -> nodes: as the plain Seed, plus animated = position and the bone of
 //                         the nearest attraction (all of them, no radius)
 //    5. Search            as the plain kernel (bind space)
@@ -23,7 +23,7 @@
 // Matrices are numpy row-major float[16] per bone: y[r] = sum_c M[r][c] x[c] (Unity's own memory order is
 // column-major; the host converts).
 // Build defines: none. Atomics: the Append/Consume counters of pool.h only. Races: none (see space_colonization.cl).
-#include "pool.h"                // pool_append, pool_append_index, pool_consume
+#include "pool.h"                // pool_append, pool_consume
 #include "random.h"              // nrand (the book's Random.cginc): the node masses
 #include "space_colonization.h"  // SkinnedAttraction, SkinnedNode, SkinnedCandidate, Edge
 
@@ -64,11 +64,12 @@ __kernel void SetupAttractions(__global SkinnedAttraction* attractions, int attr
     attractions[idx].nearest = -1;
 }
 
-__kernel void Setup(__global SkinnedNode* nodes, int slot_count, volatile __global int* node_pool_counter,
-                    __global int* node_pool) {
+// As space_colonization.cl's Setup: slot i at pool entry slot_count - 1 - i (the host sets the count to slot_count),
+// so nodes take slots 0, 1, 2, ... and the live nodes are the prefix the view reads back.
+__kernel void Setup(__global SkinnedNode* nodes, int slot_count, __global int* node_pool) {
     const int i = get_global_id(0);
     if (i >= slot_count) return;
-    pool_append_index(node_pool_counter, node_pool, slot_count, i);
+    node_pool[slot_count - 1 - i] = i;
     nodes[i].active = 0u;
 }
 

@@ -193,9 +193,8 @@ class Kernels:
         self.run("SetupAttractions", self.attraction_count, self.attractions.data, np.int32(self.attraction_count))
 
     def setup(self) -> None:
-        self.node_pool.set_count(0)
-        pool = self.node_pool
-        self.run("Setup", self.slots, self.nodes.data, np.int32(self.slots), pool.counter.data, pool.items.data)
+        self.node_pool.set_count(self.slots)  # Setup writes the entries, the host the count
+        self.run("Setup", self.slots, self.nodes.data, np.int32(self.slots), self.node_pool.items.data)
 
     def seed(self, seeds: np.ndarray) -> None:
         buffer = self.rt.to_device(np.ascontiguousarray(seeds, np.float32).reshape(-1))
@@ -417,7 +416,7 @@ def test_setup_skin_setup_and_setup_attractions_on_the_tiny_cloud(runtime):
     assert (attractions["nearest"] == -1).all(), "a stale nearest survived SetupAttractions"
     assert (nodes["active"] == 0).all()
     assert kernels.node_pool.count() == TINY_SLOTS
-    np.testing.assert_array_equal(np.sort(kernels.node_pool.read()), np.arange(TINY_SLOTS))
+    np.testing.assert_array_equal(kernels.node_pool.read(), np.arange(TINY_SLOTS)[::-1])  # slot 0 on top
 
 
 @pytest.mark.parametrize("tiles", [False, True], ids=["book_loops", "tiled"])
@@ -673,8 +672,14 @@ def test_skinned_view_shows_tubes_above_the_floor(runtime, gl):
     camera = view.png_camera()
     w, h = 200, 150
     camera.aspect = w / h
-    view.upload()
+    before = runtime.read_back_bytes
+    view.upload()  # the live node prefix and the live edges only
+    assert 0 < sim.node_slot_end == sim.live_nodes < sim.capacity
+    nbytes = sim.live_nodes * SKINNED_NODE_DTYPE.itemsize + sim.live_edges * EDGE_DTYPE.itemsize
+    assert runtime.read_back_bytes - before == nbytes
     full = frame((w, h)).render(view, camera).astype(int)
+    view.edges.set(sim.read_nodes(), sim.read_edges())  # the old upload: every node slot
+    np.testing.assert_array_equal(frame((w, h)).render(view, camera), full, err_msg="the prefix draws another picture")
     view.edges.edge_count = 0  # the same frame without the branches (and so without their shadow)
     empty = frame((w, h)).render(view, camera).astype(int)
     changed = np.abs(full - empty).sum(axis=-1) > 30

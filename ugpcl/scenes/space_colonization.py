@@ -26,8 +26,11 @@ frames; the Params class keeps the book's values, and ``--set iterations=1 growt
 
 Node slots, one rule on the host: ``capacity`` slots in all; ``free_slots`` of them wait in the node pool (the book's
 ``nodesCount``, read back with CopyCount); ``live_nodes = capacity - free_slots`` are active; ``live_edges`` edges
-exist. The ``.npz`` keeps the chapter page's names: ``nodes_free`` (free slots), ``node_count`` (live nodes),
-``edges_count``.
+exist. Setup puts slot 0 on top of the pool (the book appends in atomic order) and no node is freed during a run, so
+the live nodes are slots [0, live_nodes) (``node_slot_end``), the prefix the views read back (``live_records``).
+The ``.npz`` keeps the chapter page's names: ``nodes_free`` (free slots), ``node_count`` (live nodes),
+``edges_count``. On a GPU the sphere view's count of active attractions is taken on the device
+(CountActiveAttractions).
 
 Differences from the book: attractions closer than 1e-12 to their node are skipped in Attract (the book's seeds sit
 on attraction points and make NaN nodes); ``repeat_guard`` (on by default; ``--set repeat_guard=false`` is the book)
@@ -155,10 +158,20 @@ class GrowthSimulation(BaseSimulation):
     the same results): set at reset on GPUs and Oclgrind (which checks them); CPU devices run the book's loops, which
     PoCL runs faster. The tests set it to compare the two."""
 
+    loaded_slot_end: int
+    """One past the highest active slot ``load_state`` put in (0 after a reset)."""
+
     @property
     def live_nodes(self) -> int:
         """Active nodes: the slots not in the pool."""
         return self.capacity - self.free_slots
+
+    @property
+    def node_slot_end(self) -> int:
+        """Every active node is in slots [0, node_slot_end). The pool hands out its lowest free slot first (Setup,
+        ``load_state``), so after a reset the live nodes are exactly [0, live_nodes); after ``load_state`` the free
+        slots below its highest active one fill first, then the slots above it, one after another."""
+        return max(self.loaded_slot_end, self.live_nodes)
 
     # {{{ setup
 
@@ -180,6 +193,7 @@ class GrowthSimulation(BaseSimulation):
         self.seed_nodes(seeds)
         self.free_slots = self.node_pool.count()  # book: CopyNodesCount (A - seeds)
         self.live_edges = 0
+        self.loaded_slot_end = 0
         self.frame_index = 0
         self.last_growth_step, self.last_connect = 0, 0
         self.book_step(0.0)
@@ -196,15 +210,11 @@ class GrowthSimulation(BaseSimulation):
     # {{{ kernels, in the book's order
 
     def setup(self) -> None:
-        """Setup: every node slot into the pool, every node inactive."""
-        self.node_pool.set_count(0)
+        """Setup: every node slot into the pool, slot 0 on top (Setup writes the entries, the host the count), every
+        node inactive."""
+        self.node_pool.set_count(self.capacity)
         self.program.kernel("Setup").over(
-            self.capacity,
-            LOCAL_SIZE,
-            self.nodes.data,
-            np.int32(self.capacity),
-            self.node_pool.counter.data,
-            self.node_pool.items.data,
+            self.capacity, LOCAL_SIZE, self.nodes.data, np.int32(self.capacity), self.node_pool.items.data
         )
 
     def seed_nodes(self, seeds: np.ndarray) -> None:
@@ -352,15 +362,18 @@ class GrowthSimulation(BaseSimulation):
 
     def load_state(self, nodes: np.ndarray, attractions: np.ndarray | None = None) -> None:
         """Replace the node records (and the attractions, same count) by hand, for tests and experiments: the pool
-        becomes the free slots in ascending order (the top = the highest free index), the edges are cleared."""
+        becomes the free slots in descending order (the top = the lowest free index, as after Setup), the edges are
+        cleared."""
         if len(nodes) != self.capacity or (attractions is not None and len(attractions) != self.attraction_count):
             raise ValueError(f"load_state needs {self.capacity} nodes and {self.attraction_count} attractions")
         self.nodes.set(np.ascontiguousarray(nodes, self.node_dtype))
         if attractions is not None:
             self.attractions.set(np.ascontiguousarray(attractions, self.attraction_dtype))
-        free = np.flatnonzero(nodes["active"] == 0).astype(np.int32)
-        self.node_pool.fill(free)
+        active = nodes["active"] != 0
+        free = np.flatnonzero(~active).astype(np.int32)
+        self.node_pool.fill(free[::-1])
         self.free_slots, self.live_edges = len(free), 0
+        self.loaded_slot_end = int(np.flatnonzero(active)[-1]) + 1 if active.any() else 0
         self.edges.set_count(0)
         self.last_candidate.set(np.zeros(self.capacity, cltypes.float4))
         self._nodes_changed()
@@ -370,6 +383,13 @@ class GrowthSimulation(BaseSimulation):
 
     def read_attractions(self) -> np.ndarray:
         return self.attractions.get()
+
+    def live_records(self) -> tuple[np.ndarray, np.ndarray]:
+        """(node slots [0, node_slot_end), live edges) in the page-locked host copies of ``Runtime.read_back``, for
+        a view to hand straight to GL (the next call overwrites them): every node an edge names, and no free slot
+        past the last live one (at 2 M slots, 64 MB a frame)."""
+        rt = self.runtime
+        return rt.read_back(self.nodes, self.node_slot_end), rt.read_back(self.edges.items, self.live_edges)
 
     def read_edges(self) -> np.ndarray:
         """The live edges (book: the first edgesCount entries of the edge buffer)."""
@@ -492,6 +512,10 @@ class Simulation(GrowthSimulation):
     """The book's SpaceColonization.cs on a sphere (or hemisphere, box) of attractions; Step per frame."""
 
     Params = Params
+    count_on_device: bool
+    """``count_active_attractions`` runs CountActiveAttractions (set at reset on GPUs and Oclgrind); CPU devices
+    count on the host, where reading the flags costs less than a launch (PoCL, 3544 attractions: 0.04 ms against
+    0.12). The tests set it to compare the two."""
 
     # {{{ setup
 
@@ -506,6 +530,8 @@ class Simulation(GrowthSimulation):
         records = np.zeros(self.attraction_count, ATTRACTION_DTYPE)
         records["position"], records["nearest"], records["active"] = cloud, -1, 1
         self.attractions = rt.to_device(records)
+        self.active_count = rt.zeros(1, np.int32)  # CountActiveAttractions' sum
+        self.count_on_device = rt.is_oclgrind or not rt.device.type & cl.device_type.CPU
         self.lower = cloud.min(axis=0) if len(cloud) else np.zeros(3)
         self.upper = cloud.max(axis=0) if len(cloud) else np.ones(3)
         self._allocate_nodes(p.node_capacity or len(cloud))
@@ -578,6 +604,22 @@ class Simulation(GrowthSimulation):
         self.program.kernel(f"{kernel}_grid").over(self.attraction_count, LOCAL_SIZE, *head, *tail)
 
     # }}}
+
+    def count_active_attractions(self) -> int:
+        """The active attractions (the view's status line). ``count_on_device``: CountActiveAttractions, read back
+        as 4 bytes instead of every record (50 MB at side 160); else the host counts the flags of the records
+        (``Runtime.read_back``)."""
+        if not self.count_on_device:
+            return int((self.runtime.read_back(self.attractions)["active"] != 0).sum())
+        cl.enqueue_fill_buffer(self.runtime.queue, self.active_count.data, np.int32(0), 0, self.active_count.nbytes)
+        self.program.kernel("CountActiveAttractions").over(
+            self.attraction_count,
+            LOCAL_SIZE,
+            self.attractions.data,
+            np.int32(self.attraction_count),
+            self.active_count.data,
+        )
+        return int(self.runtime.read_back(self.active_count)[0])
 
     def stats(self) -> dict:
         return {**super().stats(), "search": self.params.search}

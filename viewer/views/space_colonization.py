@@ -4,6 +4,10 @@ CPU view (space_colonization_cpu.py).
 
 Node and edge records go to SSBOs unchanged (std430 packs the 32-byte Node and 8-byte Edge as OpenCL does); one
 2-vertex segment is drawn instanced once per live edge, and the vertex stage reads its two nodes (Edge.shader).
+Each frame moves only the live records (``live_records``: the node slots up to the last live one, which the pool
+hands out from slot 0, and the live edges) through the page-locked copies of ``Runtime.read_back``; the attractions
+cross only while they are drawn, and otherwise the status line's count of the active ones comes from
+``count_active_attractions`` (on a GPU 4 bytes).
 Tubes: a geometry shader turns each segment into a capsule (TubularEdge.shader).
 """
 
@@ -167,12 +171,15 @@ class View(TunableDistances, BaseView):
         return OrbitCamera(target=(0.0, 0.0, 0.0), distance=10.0, fov=40.0)  # book: FOV 40 at (0, 0, -10)
 
     def upload(self) -> None:
-        self.edges.set(self.sim.read_nodes(), self.sim.read_edges())
-        attractions = self.sim.read_attractions()
-        live = attractions["active"] != 0
-        self.active_attractions = int(live.sum())
-        if self.show_attractions:
-            self.points.set(attractions["position"][live])
+        sim = self.sim
+        self.edges.set(*sim.live_records())
+        if not self.show_attractions:
+            self.active_attractions = sim.count_active_attractions()  # on a GPU 4 bytes, not every record
+            return
+        attractions = sim.runtime.read_back(sim.attractions)
+        active = attractions["active"] != 0
+        self.points.set(attractions["position"][active])
+        self.active_attractions = int(active.sum())
 
     def model(self) -> np.ndarray:
         return scale_matrix(self.sim.params.object_scale)

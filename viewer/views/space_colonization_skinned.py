@@ -93,7 +93,7 @@ class View(TunableDistances, BaseView):
         return OrbitCamera(target=(0.0, 0.95, 0.0), distance=6.0, pitch=10.23, fov=23.0)
 
     def upload(self) -> None:
-        self.edges.set(self.sim.read_nodes(), self.sim.read_edges())
+        self.edges.set(*self.sim.live_records())  # the live node prefix and edges, page-locked, straight to GL
 
     def _tube_uniforms(self) -> dict:
         return {
