@@ -8,6 +8,8 @@
 //   density; during the projection x = p and y = div (z, w kept: later kernels read the leftovers).
 //   divergence, pressure float (fixed only): the projection's div and p, so a Jacobi sweep reads 8 bytes per cell and
 //   writes 4 instead of reading and writing prev's 32; prev.xy ends as (p, div) all the same.
+//   prev_z, prev_density float (fixed's step() only): with pressure and divergence, prev split into 4 float fields
+//   (x, y, z, w), so that no kernel reads or writes 16 bytes of prev to touch 4 (see DiffuseFields).
 // Boundary rules (the book's SetBoundary* helpers): a face cell copies its inner neighbour (the velocity's negates
 //   the inner cell's normal component and keeps its own tangential ones), an edge cell is the mean of the 2 face
 //   cells beside it, a corner the mean of the 3 edge cells beside it. Every wall cell's value therefore follows from
@@ -25,9 +27,9 @@
 //   DiffuseVelocity      velocity_in, prev.xyz -> velocity_out: one Jacobi sweep (host: gs_iterations times)
 //                        +B(Velocity)
 //   ProjectStep1         velocity -> prev = (0, div, prev.z, prev.w) (own cell, in place) +B(Div); p = 0 everywhere,
-//                        so B(P) would change nothing; fixed: also divergence = div, pressure = 0, and with
-//                        write_prev = 0 (a step's first projection: the copy of the velocity after it overwrites
-//                        prev.xyz) prev left alone, by step 3 too
+//                        so B(P) would change nothing; fixed: also divergence = div, pressure = 0 (first_sweep = 1:
+//                        ProjectStep2's first sweep from p = 0), and with write_prev = 0 (a step's first projection:
+//                        the copy of the velocity after it overwrites prev.xyz) prev left alone, by step 3 too
 //   ProjectStep2         book: prev_in -> prev_out, fixed: pressure_in, divergence -> pressure_out: one Jacobi sweep
 //                        of the Poisson equation for p (gs_iterations) +B(P)
 //   ProjectStep2Rows     the same sweep (fixed, w % 4 == 0) in strips of 4 x 1 x ROWS cells along z: what the host
@@ -43,6 +45,18 @@
 //   SwapDensity          prev.w = density
 //   AdvectDensity        velocity, prev.w -> density: back-trace by the current velocity +B(Density)
 //   AdvectDensityFromExt  source.xyz, prev.w -> density: back-trace by the source (density_only) +B(Density)
+//   fixed's step() (Simulation.fused_step, prev split) runs the book's step in 12 launches instead of 20
+//   (gs_iterations 2, source on), the fields bit for bit the book's kernels' (not in the book; each names the book's
+//   kernels it does):
+//     gs x DiffuseFields -> ProjectStep1 (first_sweep) -> (gs - 1) x ProjectStep2Rows -> ProjectStep3 ->
+//     SetBoundaryVelocity -> SwapAdvectVelocity -> the same projection -> SwapAdvectDensity
+//   DiffuseFields        one sweep of DiffuseVelocity and DiffuseDensity together (velocity = 0: density_only), the
+//                        first with the source on also AddSourceVelocity and AddSourceDensity; the centre terms from
+//                        the source (on) or the split prev +B(Velocity) +B(Density)
+//   SwapAdvectVelocity   SwapVelocity + AdvectVelocity: velocity_in -> velocity_out, prev_z = velocity_in.z
+//                        +B(Velocity)
+//   SwapAdvectDensity    SwapDensity + AdvectDensity / AdvectDensityFromExt: density_in -> density_out, back-traced
+//                        by the carrier; the host keeps density_in as prev.w +B(Density)
 //   Draw                 velocity, density -> solver = (u, v, w, density); the host runs it once the solver is read
 //                        (state(), solver_field()): nothing in a step reads it
 //   DrawVolume           velocity, density -> volume, maxima: the view's packed copy (not in the book; runs when
@@ -56,6 +70,9 @@
 //   interior cells, and SetBoundaryVelocity's face cells write only their normal component while its edges and
 //   corners read only the face cells' other components (float pointers, so no byte is read while another work-item
 //   writes it).
+//   the view's picture (not in the book; Simulation.ray_march, after DrawVolume for the maxima):
+//   RayMarchSmoke        velocity, density, maxima -> image: the smoke display of viewer/shaders/stable_fluids_3d.frag
+//                        ray-marched per pixel into premultiplied RGBA8: the picture, not the volume, goes to GL
 // Build defines: THREAD_X, THREAD_Y, THREAD_Z = work-group shape of the grid kernels (book: numthreads 8, 8, 4);
 //   ROWS = cells along z of a ProjectStep2Rows strip (fixed only);
 //   BOOK_VARIANT = 1: the original's divergence -0.5*du/w + dv/h + dw/d (operator precedence) and a back-trace that
@@ -136,17 +153,22 @@ INLINE float3 clamp_back_trace(float3 b, int4 n) {
 #define TAPS_INSIDE (!BOOK_VARIANT)
 
 // Trilinear interpolation of f at the grid point b (book: s0/s1, t0/t1, u0/u1 weights of the 8 cells around b).
-INLINE float4 trilinear(const __global float4* f, float3 b, int4 n) {
-    const float3 b0 = floor(b);
-    const int x0 = (int)b0.x, y0 = (int)b0.y, z0 = (int)b0.z;
-    const float s1 = b.x - b0.x, t1 = b.y - b0.y, u1 = b.z - b0.z;
-    const float s0 = 1.0f - s1, t0 = 1.0f - t1, u0 = 1.0f - u1;
-    const bool in = TAPS_INSIDE;
-    return s0 * u0 * (t0 * ld4(f, x0, y0, z0, n, in) + t1 * ld4(f, x0, y0 + 1, z0, n, in)) +
-           s1 * u0 * (t0 * ld4(f, x0 + 1, y0, z0, n, in) + t1 * ld4(f, x0 + 1, y0 + 1, z0, n, in)) +
-           s0 * u1 * (t0 * ld4(f, x0, y0, z0 + 1, n, in) + t1 * ld4(f, x0, y0 + 1, z0 + 1, n, in)) +
-           s1 * u1 * (t0 * ld4(f, x0 + 1, y0, z0 + 1, n, in) + t1 * ld4(f, x0 + 1, y0 + 1, z0 + 1, n, in));
-}
+// One body for float4 fields (trilinear) and float fields (trilinear1: fixed's step() samples the density copy from
+// a float field), so that a float field gives bit for bit the float4 field's component.
+#define TRILINEAR(name, T, LD)                                                                                       \
+    INLINE T name(const __global T* f, float3 b, int4 n) {                                                         \
+        const float3 b0 = floor(b);                                                                                 \
+        const int x0 = (int)b0.x, y0 = (int)b0.y, z0 = (int)b0.z;                                                   \
+        const float s1 = b.x - b0.x, t1 = b.y - b0.y, u1 = b.z - b0.z;                                              \
+        const float s0 = 1.0f - s1, t0 = 1.0f - t1, u0 = 1.0f - u1;                                                 \
+        const bool in = TAPS_INSIDE;                                                                                \
+        return s0 * u0 * (t0 * LD(f, x0, y0, z0, n, in) + t1 * LD(f, x0, y0 + 1, z0, n, in)) +                      \
+               s1 * u0 * (t0 * LD(f, x0 + 1, y0, z0, n, in) + t1 * LD(f, x0 + 1, y0 + 1, z0, n, in)) +              \
+               s0 * u1 * (t0 * LD(f, x0, y0, z0 + 1, n, in) + t1 * LD(f, x0, y0 + 1, z0 + 1, n, in)) +              \
+               s1 * u1 * (t0 * LD(f, x0 + 1, y0, z0 + 1, n, in) + t1 * LD(f, x0 + 1, y0 + 1, z0 + 1, n, in));      \
+    }
+TRILINEAR(trilinear, float4, ld4)
+TRILINEAR(trilinear1, float, ld)
 
 // }}}
 
@@ -282,11 +304,23 @@ void AddSourceBrush3D(__global float4* source, int w, int h, int d, float4 cente
     source[id] = (float4)(direction.xyz * f, f);
 }
 
+// What AddSourceVelocity and AddSourceDensity add and leave in prev, rounded before any caller adds it (no FMA
+// contraction: fixed's step() adds the term where the book's kernels add the value they stored, and must round alike).
+INLINE float3 velocity_source(float4 source, float velocity_coef, float dt) {
+#pragma OPENCL FP_CONTRACT OFF
+    return source.xyz * velocity_coef * dt;
+}
+
+INLINE float density_source(float4 source, float density_coef, float dt) {
+#pragma OPENCL FP_CONTRACT OFF
+    return source.w * density_coef * dt;
+}
+
 __kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
 void AddSourceVelocity(__global float4* velocity, __global float4* prev, const __global float4* source,
                        int w, int h, int d, float velocity_coef, float dt) {
     CELL_OR_RETURN(w, h, d)
-    const float3 s = source[id].xyz * velocity_coef * dt;
+    const float3 s = velocity_source(source[id], velocity_coef, dt);
     velocity[id] = (float4)(velocity[id].xyz + s, 0.0f);
     prev[id] = (float4)(s, prev[id].w);
 }
@@ -347,24 +381,30 @@ INLINE float divergence_at(const __global float4* velocity, int x, int y, int z,
 // fixed: the divergence and p = 0 also go to their own float fields, which the sweeps read (12 bytes per cell, not
 // the 32 of a float4 read and write); ProjectStep3 writes the solved p back into prev.x. write_prev = 0 leaves prev
 // alone in both (the host's first projection of a step: SwapVelocity overwrites prev.xyz before anything reads it).
+// fixed, first_sweep = 1 (step()): pressure = the first ProjectStep2 sweep's p instead of 0, so the host runs one
+// sweep less. From p = 0 that sweep's sum of the 6 neighbours is +0, so its p is (div + 0) / 6 at the cell's inner
+// cell, the wall rule applied (pressure_at's arithmetic: the same bits).
 __kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
 #if BOOK_VARIANT
 void ProjectStep1(const __global float4* velocity, __global float4* prev, int w, int h, int d) {
 #else
 void ProjectStep1(const __global float4* velocity, __global float4* prev, __global float* divergence,
-                  __global float* pressure, int w, int h, int d, int write_prev) {
+                  __global float* pressure, int w, int h, int d, int write_prev, int first_sweep) {
 #endif
     const int4 n = (int4)(w, h, d, 0);
     int c[3] = {get_global_id(0), get_global_id(1), get_global_id(2)};
-    float div;
+    float div, swept;  // swept: the first sweep's p (fixed, first_sweep)
     if (is_wall_group(d)) {  // SetBoundaryDiv: the divergence of the inner cell
         if (!wall_item(n, c)) return;
         int in[3];
         const int walls = inner_cell(c, n, in);
-        div = wall_copy(walls, divergence_at(velocity, in[0], in[1], in[2], n));
+        const float inner = divergence_at(velocity, in[0], in[1], in[2], n);
+        div = wall_copy(walls, inner);
+        swept = wall_copy(walls, (inner + 0.0f) / 6.0f);
     } else {
         if (!is_interior(c[0], c[1], c[2], n)) return;  // padding, or a wall cell (a wall item sets it)
         div = divergence_at(velocity, c[0], c[1], c[2], n);
+        swept = (div + 0.0f) / 6.0f;
     }
     const int id = cell_of(c, n);
 #if BOOK_VARIANT
@@ -376,7 +416,7 @@ void ProjectStep1(const __global float4* velocity, __global float4* prev, __glob
     }
 #if !BOOK_VARIANT
     divergence[id] = div;
-    pressure[id] = 0.0f;
+    pressure[id] = first_sweep ? swept : 0.0f;
 #endif
 }
 
@@ -539,13 +579,12 @@ INLINE float4 advect_velocity_at(const __global float4* prev, int x, int y, int 
     return (float4)(trilinear(prev, b, n).xyz, 0.0f);
 }
 
-__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
-void AdvectVelocity(const __global float4* prev, __global float4* velocity, int w, int h, int d, float dt) {
-    const int4 n = (int4)(w, h, d, 0);
-    const float dfdt = dt * (float)(w + h + d) / 3.0f;
+// AdvectVelocity's work-item: the cell it wrote, -1 for none.
+INLINE int advect_velocity(const __global float4* prev, __global float4* velocity, int4 n, float dt) {
+    const float dfdt = dt * (float)(n.x + n.y + n.z) / 3.0f;
     int c[3] = {get_global_id(0), get_global_id(1), get_global_id(2)};
-    if (is_wall_group(d)) {  // SetBoundaryVelocity from the advected values of the cells the rule reads
-        if (!wall_item(n, c)) return;
+    if (is_wall_group(n.z)) {  // SetBoundaryVelocity from the advected values of the cells the rule reads
+        if (!wall_item(n, c)) return -1;
         int in[3], f[3];
         const int walls = inner_cell(c, n, in);
         const float4 inner = advect_velocity_at(prev, in[0], in[1], in[2], n, dfdt);
@@ -555,11 +594,19 @@ void AdvectVelocity(const __global float4* prev, __global float4* velocity, int 
             face_cell(c, in, axis, f);
             face[axis] = face_velocity(axis, advect_velocity_at(prev, f[0], f[1], f[2], n, dfdt), inner);
         }
-        velocity[cell_of(c, n)] = wall_velocity(c, in, walls, face);
-        return;
+        const int id = cell_of(c, n);
+        velocity[id] = wall_velocity(c, in, walls, face);
+        return id;
     }
-    if (!is_interior(c[0], c[1], c[2], n)) return;  // padding, or a wall cell (a wall item sets it)
-    velocity[cell_of(c, n)] = advect_velocity_at(prev, c[0], c[1], c[2], n, dfdt);
+    if (!is_interior(c[0], c[1], c[2], n)) return -1;  // padding, or a wall cell (a wall item sets it)
+    const int id = cell_of(c, n);
+    velocity[id] = advect_velocity_at(prev, c[0], c[1], c[2], n, dfdt);
+    return id;
+}
+
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+void AdvectVelocity(const __global float4* prev, __global float4* velocity, int w, int h, int d, float dt) {
+    advect_velocity(prev, velocity, (int4)(w, h, d, 0), dt);
 }
 
 // }}}
@@ -570,7 +617,7 @@ __kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
 void AddSourceDensity(__global float* density, __global float4* prev, const __global float4* source,
                       int w, int h, int d, float density_coef, float dt) {
     CELL_OR_RETURN(w, h, d)
-    const float s = source[id].w * density_coef * dt;
+    const float s = density_source(source[id], density_coef, dt);
     density[id] += s;
     prev[id].w = s;
 }
@@ -607,16 +654,16 @@ void SwapDensity(const __global float* density, __global float4* prev, int w, in
 }
 
 // Back-trace by `carrier` (the velocity after the second projection, or the source's xyz) and sample the density
-// copy in prev.w (the original samples prev.z, the velocity's z: fixed); walls copy the inner cell's value
-// (SetBoundaryDensity).
-INLINE float advect_density_at(const __global float4* carrier, const __global float4* prev, int x, int y, int z,
-                               int4 n, float dfdt) {
+// copy in prev.w (the original samples prev.z, the velocity's z: fixed), or, where `copy` is given (fixed's step()),
+// in that float field; walls copy the inner cell's value (SetBoundaryDensity).
+INLINE float advect_density_at(const __global float4* carrier, const __global float4* prev,
+                               const __global float* copy, int x, int y, int z, int4 n, float dfdt) {
     const float3 b = clamp_back_trace((float3)(x, y, z) - dfdt * carrier[cell(x, y, z, n)].xyz, n);
-    return trilinear(prev, b, n).w;
+    return copy ? trilinear1(copy, b, n) : trilinear(prev, b, n).w;
 }
 
-INLINE void advect_density(const __global float4* carrier, const __global float4* prev, __global float* density,
-                           int4 n, float dt) {
+INLINE void advect_density(const __global float4* carrier, const __global float4* prev, const __global float* copy,
+                           __global float* density, int4 n, float dt) {
     const float dfdt = dt * (float)(n.x + n.y + n.z) / 3.0f;
     int c[3] = {get_global_id(0), get_global_id(1), get_global_id(2)};
     float value;
@@ -624,10 +671,10 @@ INLINE void advect_density(const __global float4* carrier, const __global float4
         if (!wall_item(n, c)) return;
         int in[3];
         const int walls = inner_cell(c, n, in);
-        value = wall_copy(walls, advect_density_at(carrier, prev, in[0], in[1], in[2], n, dfdt));
+        value = wall_copy(walls, advect_density_at(carrier, prev, copy, in[0], in[1], in[2], n, dfdt));
     } else {
         if (!is_interior(c[0], c[1], c[2], n)) return;  // padding, or a wall cell (a wall item sets it)
-        value = advect_density_at(carrier, prev, c[0], c[1], c[2], n, dfdt);
+        value = advect_density_at(carrier, prev, copy, c[0], c[1], c[2], n, dfdt);
     }
     density[cell_of(c, n)] = value;
 }
@@ -635,15 +682,130 @@ INLINE void advect_density(const __global float4* carrier, const __global float4
 __kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
 void AdvectDensity(const __global float4* velocity, const __global float4* prev, __global float* density,
                    int w, int h, int d, float dt) {
-    advect_density(velocity, prev, density, (int4)(w, h, d, 0), dt);
+    advect_density(velocity, prev, 0, density, (int4)(w, h, d, 0), dt);
 }
 
 // density_only: the source's velocity replaces the solved one (the original samples the source at uvw = 0).
 __kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
 void AdvectDensityFromExt(const __global float4* source, const __global float4* prev,
                           __global float* density, int w, int h, int d, float dt) {
-    advect_density(source, prev, density, (int4)(w, h, d, 0), dt);
+    advect_density(source, prev, 0, density, (int4)(w, h, d, 0), dt);
 }
+
+// }}}
+
+// {{{ fixed's step() in fewer passes (Simulation.fused_step): the book's kernels' values bit for bit
+
+// step() keeps prev split into float fields (Simulation.prev_split): x = p (the pressure field), y = div (the
+// divergence field), z = prev_z, w = prev_density. The book's writes of prev that a later read sees are kept (the
+// second projection's p and div, SwapVelocity's z, SwapDensity's copy); the others (AddSource*'s terms, SwapVelocity's
+// x and y) are computed where they are read instead of stored. The first projection is the same as the second,
+// ProjectStep1 doing the first sweep (first_sweep = 1), and leaves prev.xy alone as step()'s does.
+#if !BOOK_VARIANT
+
+// The inputs of one DiffuseFields sweep, as the book's DiffuseVelocity and DiffuseDensity find them.
+typedef struct {
+    const __global float4* velocity;  // velocity_in
+    const __global float* density;    // density_in
+    const __global float4* source;
+    const __global float *prev_x, *prev_y, *prev_z, *prev_w;  // the split prev
+    float velocity_coef, density_coef, dt;
+    int source_on;  // AddSource* ran this step: prev.xyz and prev.w hold their terms
+    int add;        // the step's first sweep with the source on: the inputs are AddSource*'s outputs
+} Sweep;
+
+// velocity_in at a cell, or with add AddSourceVelocity's output there (velocity + its term, w = 0); 0 outside (ld4).
+INLINE float4 sweep_velocity(const Sweep* s, int x, int y, int z, int4 n, bool inside) {
+    if (!(inside || in_grid(x, y, z, n))) return (float4)(0.0f);
+    const int i = cell(x, y, z, n);
+    const float4 v = s->velocity[i];
+    return s->add ? (float4)(v.xyz + velocity_source(s->source[i], s->velocity_coef, s->dt), 0.0f) : v;
+}
+
+// density_in at a cell of the grid, or with add AddSourceDensity's output there.
+INLINE float sweep_density(const Sweep* s, int i) {
+    const float rho = s->density[i];
+    return s->add ? rho + density_source(s->source[i], s->density_coef, s->dt) : rho;
+}
+
+// diffuse_velocity_at with prev.xyz = the source's term (source on) or the split prev's x, y, z.
+INLINE float4 sweep_velocity_at(const Sweep* s, int x, int y, int z, int4 n, float a, bool inside) {
+    const float4 sum = sweep_velocity(s, x - 1, y, z, n, inside) + sweep_velocity(s, x + 1, y, z, n, inside) +
+                       sweep_velocity(s, x, y - 1, z, n, inside) + sweep_velocity(s, x, y + 1, z, n, inside) +
+                       sweep_velocity(s, x, y, z - 1, n, inside) + sweep_velocity(s, x, y, z + 1, n, inside);
+    const int i = cell(x, y, z, n);
+    const float3 centre = s->source_on ? velocity_source(s->source[i], s->velocity_coef, s->dt)
+                                       : (float3)(s->prev_x[i], s->prev_y[i], s->prev_z[i]);
+    return (float4)((centre + a * sum.xyz) / (1.0f + 6.0f * a), 0.0f);
+}
+
+// diffuse_density_at (an interior cell) with prev.w = the source's term (source on) or the split prev's w.
+INLINE float sweep_density_at(const Sweep* s, int x, int y, int z, int4 n, float a) {
+    const float sum = sweep_density(s, cell(x - 1, y, z, n)) + sweep_density(s, cell(x + 1, y, z, n)) +
+                      sweep_density(s, cell(x, y - 1, z, n)) + sweep_density(s, cell(x, y + 1, z, n)) +
+                      sweep_density(s, cell(x, y, z - 1, n)) + sweep_density(s, cell(x, y, z + 1, n));
+    const int i = cell(x, y, z, n);
+    const float centre = s->source_on ? density_source(s->source[i], s->density_coef, s->dt) : s->prev_w[i];
+    return (centre + a * sum) / (1.0f + 6.0f * a);
+}
+
+// One sweep of DiffuseVelocity (with velocity = 1; 0 in density_only mode) and DiffuseDensity together (the two
+// fields do not meet before the advections); with add_source the step's first, which also does AddSourceVelocity and
+// AddSourceDensity; source_on: their terms stand in for prev.xyz and prev.w. +B(Velocity), +B(Density).
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+void DiffuseFields(const __global float4* velocity_in, __global float4* velocity_out, const __global float* density_in,
+                   __global float* density_out, const __global float4* source, const __global float* prev_x,
+                   const __global float* prev_y, const __global float* prev_z, const __global float* prev_w, int w,
+                   int h, int d, float dt, float visc, float diff, float velocity_coef, float density_coef,
+                   int velocity, int source_on, int add_source) {
+    const int4 n = (int4)(w, h, d, 0);
+    const float a_v = dt * visc * (float)w * (float)h * (float)d;  // DiffuseVelocity's a
+    const float a_d = dt * diff * (float)w * (float)h * (float)d;  // DiffuseDensity's a
+    const Sweep s = {velocity_in, density_in, source, prev_x, prev_y, prev_z, prev_w,
+                     velocity_coef, density_coef, dt, source_on, add_source};
+    int c[3] = {get_global_id(0), get_global_id(1), get_global_id(2)};
+    if (is_wall_group(d)) {  // SetBoundaryDensity and SetBoundaryVelocity, as DiffuseDensity's and DiffuseVelocity's
+        if (!wall_item(n, c)) return;
+        int in[3], f[3];
+        const int walls = inner_cell(c, n, in), id = cell_of(c, n);
+        density_out[id] = wall_copy(walls, sweep_density_at(&s, in[0], in[1], in[2], n, a_d));
+        if (!velocity) return;
+        const float4 inner = sweep_velocity_at(&s, in[0], in[1], in[2], n, a_v, true);
+        float4 face[3] = {(float4)(0.0f), (float4)(0.0f), (float4)(0.0f)};
+        for (int axis = 0; axis < 3; axis++) {
+            if (c[axis] == in[axis]) continue;
+            face_cell(c, in, axis, f);
+            face[axis] = face_velocity(axis, sweep_velocity_at(&s, f[0], f[1], f[2], n, a_v, false), inner);
+        }
+        velocity_out[id] = wall_velocity(c, in, walls, face);
+        return;
+    }
+    if (!is_interior(c[0], c[1], c[2], n)) return;  // padding, or a wall cell (a wall item sets it)
+    const int id = cell_of(c, n);
+    density_out[id] = sweep_density_at(&s, c[0], c[1], c[2], n, a_d);
+    if (velocity) velocity_out[id] = sweep_velocity_at(&s, c[0], c[1], c[2], n, a_v, true);
+}
+
+// SwapVelocity + AdvectVelocity: the book copies the velocity into prev.xyz and advects the copy; this advects the
+// velocity itself (the same values) into the pair's other buffer, and keeps of the copy what the step leaves in
+// prev: its z (the second projection puts p and div into prev.xy). +B(Velocity)
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+void SwapAdvectVelocity(const __global float4* velocity_in, __global float4* velocity_out, __global float* prev_z,
+                        int w, int h, int d, float dt) {
+    const int id = advect_velocity(velocity_in, velocity_out, (int4)(w, h, d, 0), dt);
+    if (id >= 0) prev_z[id] = velocity_in[id].z;
+}
+
+// SwapDensity + AdvectDensity (AdvectDensityFromExt with the source as carrier): the book copies the density into
+// prev.w and advects the copy; this advects the density itself into the pair's other buffer, and the host keeps the
+// buffer it read as prev's w (no copy made). +B(Density)
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, THREAD_Z)))
+void SwapAdvectDensity(const __global float4* carrier, const __global float* density_in, __global float* density_out,
+                       int w, int h, int d, float dt) {
+    advect_density(carrier, 0, density_in, density_out, (int4)(w, h, d, 0), dt);
+}
+
+#endif
 
 // }}}
 
@@ -710,6 +872,124 @@ __kernel void SetBoundaryDiv(__global float* div, int stride, int w, int h, int 
 // p, every `stride`-th float of `p` (prev.x: 4; fixed's pressure field during a solve: 1).
 __kernel void SetBoundaryP(__global float* p, int stride, int w, int h, int d) {
     set_boundary_copy(p, stride, 0, (int4)(w, h, d, 0));
+}
+
+// }}}
+
+// {{{ the view's smoke (not in the book): RayMarchSmoke
+
+// viewer/shaders/stable_fluids_3d.frag's smoke display, one work-item per pixel of a width x height picture: a ray
+// from the eye through the pixel's centre, the box's entry and exit, half-cell steps front to back with
+// alpha = 1 - exp(-k value ds), one shadow ray towards the light per sample of smoke (density) or the heat ramp
+// (speed), an early exit once 99 % opaque; the same steps, constants and order as the shader. Why on the device: a
+// frame then moves the picture to GL (3.7 MB at 1280x720) instead of the half-float volume (32 MB at 256^3), and the
+// march runs on the whole GPU, where a compute GPU gives its graphics pipeline a few of its multiprocessors. The
+// field is read from the solver's own fields, filtered as GL's linear filter reads the shader's texture (texel
+// centres at (i + 0.5) / n, taps clamped to the edge); the speed display scales by DrawVolume's max speed, read
+// from maxima on the device. Output: premultiplied RGBA8, row 0 the bottom row (GL's order).
+#define SMOKE_MAX_STEPS 1024
+#define SMOKE_SHADOW_STEPS 8
+#define SMOKE_ALBEDO 0.95f
+#define SMOKE_AMBIENT 0.55f
+
+// The shown field at cell index id: its density (field 0) or its speed |(u, v, w)| (field 1), as DrawVolume writes.
+INLINE float shown_value(const __global float4* velocity, const __global float* density, int field, int id) {
+    if (field == 0) return density[id];
+    const float4 v = velocity[id];
+    return sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
+}
+
+// GL's linear filter (clamp to edge) of the shown field at texture coordinate uvw ([0, 1] across the grid). The
+// texel coordinates (cell i's centre at i) are clamped to [-1, n - 1], which changes no value (beyond, both taps are
+// the edge cell) and keeps every tap in the grid.
+INLINE float filtered(const __global float4* velocity, const __global float* density, int field, float3 uvw,
+                      int4 n) {
+    const float3 size = convert_float3(n.xyz);
+    const float3 c = clamp(uvw * size - 0.5f, (float3)(-1.0f), size - 1.0f);
+    const float3 c0 = floor(c), f = c - c0;
+    const int x = (int)c0.x, y = (int)c0.y, z = (int)c0.z;
+    const int x0 = max(x, 0), y0 = max(y, 0), z0 = max(z, 0);
+    const int i = cell(x0, y0, z0, n);  // the lower tap; the upper one cell on, or the same at the grid's edge
+    const int dx = min(x + 1, n.x - 1) - x0, dy = (min(y + 1, n.y - 1) - y0) * n.x;
+    const int dz = (min(z + 1, n.z - 1) - z0) * n.x * n.y;
+#define TAP(offset) shown_value(velocity, density, field, i + (offset))
+    const float v00 = mix(TAP(0), TAP(dx), f.x), v10 = mix(TAP(dy), TAP(dy + dx), f.x);
+    const float v01 = mix(TAP(dz), TAP(dz + dx), f.x), v11 = mix(TAP(dz + dy), TAP(dz + dy + dx), f.x);
+#undef TAP
+    return mix(mix(v00, v10, f.y), mix(v01, v11, f.y), f.z);
+}
+
+// Black-body-like ramp for speeds: blue -> red -> yellow -> white (the shader's heat()).
+INLINE float3 heat(float t) {
+    t = clamp(t, 0.0f, 1.0f);
+    const float blue = 0.6f - 1.5f * fabs(t - 0.25f) + 2.0f * max(t - 0.75f, 0.0f);
+    return clamp((float3)(3.0f * t - 0.6f, 3.0f * t - 1.6f, blue), 0.0f, 1.0f);
+}
+
+// A row-major 4x4 matrix times (v, 1).
+INLINE float4 transform(float16 m, float3 v) {
+    const float4 p = (float4)(v, 1.0f);
+    return (float4)(dot(m.s0123, p), dot(m.s4567, p), dot(m.s89ab, p), dot(m.scdef, p));
+}
+
+__kernel void RayMarchSmoke(const __global float4* velocity, const __global float* density,
+                            const __global int* maxima, __global uchar4* image, int field, int width, int height,
+                            float16 inv_view_proj, float4 eye, float4 light_dir, float absorption, int w, int h,
+                            int d) {
+    const int px = get_global_id(0), py = get_global_id(1);
+    if (px >= width || py >= height) return;  // padding work-items of the rounded-up global size
+    const int4 n = (int4)(w, h, d, 0);
+    const float3 box = convert_float3(n.xyz) / (float)max(w, max(h, d));  // world size: cubic cells, largest edge 1
+    const float box_length = max(box.x, max(box.y, box.z));
+    const float ds = 0.5f / (float)max(w, max(h, d));  // half a cell
+    // the pixel centre's ray (the shader's v_ndc), from the eye
+    const float2 ndc = (float2)(((float)px + 0.5f) / (float)width, ((float)py + 0.5f) / (float)height) * 2.0f - 1.0f;
+    const float4 near = transform(inv_view_proj, (float3)(ndc, -1.0f));
+    const float4 far = transform(inv_view_proj, (float3)(ndc, 1.0f));
+    const float3 dir = normalize(far.xyz / far.w - near.xyz / near.w), o = eye.xyz;
+    // entry and exit distances through the box (no division by an exact 0)
+    const float3 inv = 1.0f / select(dir, (float3)(1e-8f), isless(fabs(dir), (float3)(1e-8f)));
+    const float3 t0 = (-0.5f * box - o) * inv, t1 = (0.5f * box - o) * inv;
+    const float3 lo = fmin(t0, t1), hi = fmax(t0, t1);
+    const float t_near = max(max(lo.x, lo.y), max(lo.z, 0.0f)), t_far = min(min(hi.x, hi.y), hi.z);
+    uchar4 out = (uchar4)(0);
+    if (t_far > t_near) {  // a hit (false for NaN too)
+        float value_scale = 1.0f;  // speed: 1 / the max speed, so that the fastest cell reads 1
+        if (field == 1) {
+            const int bits = maxima[1];
+            const float top = as_float(bits >= 0 ? bits : bits ^ 0x7fffffff);  // ordered_int's inverse
+            if (top > 0.0f) value_scale = 1.0f / top;
+        }
+        const float k = absorption / box_length;  // extinction per unit value per world unit
+        const float shadow_step = 0.5f * box_length / (float)SMOKE_SHADOW_STEPS;
+        float3 color = (float3)(0.0f);
+        float transmittance = 1.0f;
+        const int steps = min((int)ceil((t_far - t_near) / ds), SMOKE_MAX_STEPS);
+        for (int i = 0; i < steps; i++) {
+            const float3 p = o + (t_near + ((float)i + 0.5f) * ds) * dir;
+            const float value = filtered(velocity, density, field, p / box + 0.5f, n) * value_scale;
+            if (value <= 1e-5f) continue;  // empty space: nothing to absorb or light
+            const float alpha = 1.0f - exp(-k * value * ds);
+            float3 albedo = (float3)(SMOKE_ALBEDO);
+            float light = 1.0f;
+            if (field == 0) {  // one shadow ray: how much smoke lies between p and the light
+                float depth = 0.0f;
+                for (int j = 1; j <= SMOKE_SHADOW_STEPS; j++) {
+                    const float3 q = p + (float)j * shadow_step * light_dir.xyz;
+                    if (any(isgreater(fabs(q), 0.5f * box))) break;
+                    depth += filtered(velocity, density, field, q / box + 0.5f, n) * shadow_step;
+                }
+                light = SMOKE_AMBIENT + (1.0f - SMOKE_AMBIENT) * exp(-k * depth);
+            } else {
+                albedo = heat(value);
+            }
+            color += transmittance * alpha * albedo * light;
+            transmittance *= 1.0f - alpha;
+            if (transmittance < 0.01f) break;  // opaque enough: what lies behind cannot show
+        }
+        out = convert_uchar4_sat_rte((float4)(color, 1.0f - transmittance) * 255.0f);
+    }
+    image[py * width + px] = out;
 }
 
 // }}}

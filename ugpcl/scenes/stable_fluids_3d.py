@@ -14,7 +14,14 @@ kernel applies the field's boundary rule itself, as the book's kernels call thei
     Project = ProjectStep1+B(Div) -> gs x ProjectStep2+B(P) -> ProjectStep3 -> SetBoundaryVelocity
 
 The AddSource kernels run only while the source is on (the original passes no source texture otherwise), so
-``prev`` keeps its leftovers as the book's does.
+``prev`` keeps its leftovers as the book's does. ``variant=book`` runs these kernels one by one; ``variant=fixed``
+runs the same step in fewer, fused launches on ``prev`` split into float fields (``fused_step``):
+
+    gs x DiffuseFields+B -> Project' -> SwapAdvectVelocity+B -> Project' -> SwapAdvectDensity+B
+    Project' = ProjectStep1+B(Div) (with the first sweep) -> (gs - 1) x ProjectStep2+B(P) -> ProjectStep3
+               -> SetBoundaryVelocity
+
+with the fields bit for bit those of the kernels one by one (tested; 316 instead of 664 bytes a cell at gs 2).
 
 Differences from the book: Jacobi sweeps between ping-pong buffers (the original's in-place Gauss-Seidel races); the
 walls are set by extra work-groups past the grid (``SETS_WALLS``), one work-item per wall cell computing the kernel's
@@ -64,15 +71,21 @@ KERNELS = (
     "SwapDensity",
     "AdvectDensity",
     "AdvectDensityFromExt",
+    "DiffuseFields",
+    "SwapAdvectVelocity",
+    "SwapAdvectDensity",
     "Draw",
     "DrawVolume",
     "SetBoundaryDensity",
     "SetBoundaryDiv",
     "SetBoundaryP",
+    "RayMarchSmoke",
 )
 """The kernels of stable_fluids_3d.cl in host call order (its header's list); the last three only for set_boundary_*.
-ProjectStep2Rows is ProjectStep2 in strips (sweep_kernel), built for the fixed variant only; DrawVolume only for the
-view (draw_volume)."""
+ProjectStep2Rows is ProjectStep2 in strips (sweep_kernel), built for the fixed variant only, as FUSED; DrawVolume only
+for the view (draw_volume), and RayMarchSmoke (ray_march, launched over the picture's pixels)."""
+FUSED = frozenset({"DiffuseFields", "SwapAdvectVelocity", "SwapAdvectDensity"})
+"""The kernels of the fixed variant's step() that each do several of the book's (fused_step); fixed builds only."""
 ROWS_PER_ITEM = 2
 """Cells along z of the 4-cell strip one work-item of ProjectStep2Rows sweeps (its ROWS define)."""
 ROWS_LOCAL = (32, 4, 1)
@@ -82,6 +95,7 @@ against 127.1 us for ProjectStep2 in the book's 8 x 8 x 4 groups; 128^3: 16.1 ag
 SETS_WALLS = frozenset(
     {"DiffuseVelocity", "ProjectStep1", "ProjectStep2", "AdvectVelocity", "DiffuseDensity", "AdvectDensity"}
     | {"AdvectDensityFromExt"}
+    | FUSED
 )
 """Kernels that apply their field's boundary rule themselves: launched with extra layers of work-groups past the
 grid, one work-item per wall cell, as stable_fluids_3d.cl's wall_item() expects."""
@@ -157,8 +171,8 @@ class Simulation(StripSweeps, BaseSimulation):
     def allocations(cls, params: Params) -> list[Allocation]:
         cells = params.width * params.height * params.depth
         floats = {"velocity": 4, "velocity (write)": 4, "density": 1, "density (write)": 1, "prev": 4,
-                  "prev (write)": 4, "divergence": 1, "pressure": 1, "pressure (write)": 1, "source": 4,
-                  "no source": 4, "solver": 4}  # the fields of _reset  # fmt: skip
+                  "prev (write)": 4, "divergence": 1, "pressure": 1, "pressure (write)": 1, "prev z": 1,
+                  "prev density": 1, "source": 4, "no source": 4, "solver": 4}  # the fields of _reset  # fmt: skip
         fields = [Allocation(f"{name} field", cells * 4 * n, "width") for name, n in floats.items()]
         return [*fields, Allocation("view volume (half floats)", cells * 2, "width")]
 
@@ -182,12 +196,17 @@ class Simulation(StripSweeps, BaseSimulation):
         self.divergence = rt.zeros(self.shape, np.float32)
         self.pressure = PingPong.zeros(rt, self.shape, np.float32)
         self.solving = False  # fixed, between ProjectStep1 and ProjectStep3: p lives in `pressure`, not in prev.x
+        # fixed's step() (fused_step): prev split into float fields, x = pressure, y = divergence, z and w these two
+        self.prev_z = rt.zeros(self.shape, np.float32)
+        self.prev_density = rt.zeros(self.shape, np.float32)
+        self.prev_split = p.variant == "fixed"  # where prev lives now (all zero: either); _float4_prev, _split_prev
         self.source = rt.zeros((*self.shape, 4), np.float32)
         self.no_source = rt.zeros((*self.shape, 4), np.float32)  # what AdvectDensityFromExt reads with no source
         self.solver = rt.zeros((*self.shape, 4), np.float32)
         # draw_volume: the view's half-float field and the two maxima
         self.volume = rt.zeros(self.shape, np.float16)
         self.maxima = rt.zeros(2, np.int32)
+        self.smoke_image = None  # ray_march's picture, made for the size asked
         self.external_source = False
         self._brush_of = None  # the emitter that source holds (add_source_brush3d), None: unknown
         self.solver_stale = False  # solver lags velocity and density: Draw runs once it is read (_step)
@@ -213,6 +232,7 @@ class Simulation(StripSweeps, BaseSimulation):
                 name: (self._program.kernel(name), self._walls_shape if name in SETS_WALLS else grid, self.local_size)
                 for name in KERNELS
                 if name != "ProjectStep2Rows" and not name.startswith("SetBoundary")  # their own shapes
+                if not (book and name in FUSED)
             }
             w, h, d = grid
             if not book and w % 4 == 0:  # strips of 4 x 1 x ROWS_PER_ITEM cells, walls included
@@ -239,6 +259,7 @@ class Simulation(StripSweeps, BaseSimulation):
         """Put p and the divergence where this variant's ProjectStep2/3 read them: the float fields (fixed) or prev.xy
         (book). A no-op inside step(); otherwise (prev set on the host or restored, the variant switched mid-solve)
         a copy through the host."""
+        self._float4_prev()
         fixed = self.params.variant == "fixed"
         if fixed == self.solving:
             return
@@ -251,6 +272,35 @@ class Simulation(StripSweeps, BaseSimulation):
             self.prev.read.set(prev)
         self.solving = fixed
 
+    def _split_fields(self) -> tuple:
+        """The float fields prev is split into while prev_split: x, y, z, w."""
+        return self.pressure.read, self.divergence, self.prev_z, self.prev_density
+
+    def _prev_array(self) -> np.ndarray:
+        """prev (D, H, W, 4) as the book's would be, read back from where it lives now."""
+        if self.prev_split:
+            return np.stack([field.get() for field in self._split_fields()], -1)
+        prev = self.prev.read.get()
+        if self.solving:  # mid-projection (fixed): p in x
+            prev[..., 0] = self.pressure.read.get()
+        return prev
+
+    def _float4_prev(self):
+        """prev where the book's kernels read it, the float4 field: joined from the float fields fused_step leaves
+        it in (a copy through the host; only where a step() meets the book's kernels one by one). Returns it."""
+        if self.prev_split:
+            self.prev.read.set(self._prev_array())
+            self.prev_split = self.solving = False
+        return self.prev.read
+
+    def _split_prev(self) -> None:
+        """prev where fused_step reads it, split into float fields (a copy through the host, as _float4_prev)."""
+        if not self.prev_split:
+            prev = self._prev_array()
+            for k, field in enumerate(self._split_fields()):
+                field.set(np.ascontiguousarray(prev[..., k]))
+            self.prev_split, self.solving = True, False
+
     # {{{ boundaries on their own (step() has the kernels apply them, as the book's in-kernel SetBoundary* calls)
 
     def set_boundary_density(self) -> None:
@@ -261,12 +311,13 @@ class Simulation(StripSweeps, BaseSimulation):
 
     def set_boundary_div(self) -> None:
         """SetBoundaryDiv on prev.y, and on the divergence field the sweeps read while a fixed projection runs."""
-        self._boundary("Div", self.prev.read, np.int32(4))
+        self._boundary("Div", self._float4_prev(), np.int32(4))
         if self.solving:
             self._boundary("Div", self.divergence, np.int32(1))
 
     def set_boundary_p(self) -> None:
         """SetBoundaryP on p: prev.x, or the pressure field while a fixed projection runs (see solving)."""
+        self._float4_prev()
         p, stride = (self.pressure.read, 1) if self.solving else (self.prev.read, 4)
         self._boundary("P", p, np.int32(stride))
 
@@ -291,14 +342,14 @@ class Simulation(StripSweeps, BaseSimulation):
         """AddSourceVelocity: velocity += source.xyz*velocity_coef*dt; prev.xyz = the same."""
         coef = np.float32(self.params.velocity_coef)
         self._grid(
-            "AddSourceVelocity", self.velocity.read, self.prev.read, self.source, *self.dims, coef, np.float32(dt)
+            "AddSourceVelocity", self.velocity.read, self._float4_prev(), self.source, *self.dims, coef, np.float32(dt)
         )
         self.solving = False  # prev.x overwritten, as the book's p
 
     def diffuse_velocity(self, dt: float, sweeps: int | None = None) -> None:
         """DiffuseVelocity: ``sweeps`` (default gs_iterations) Jacobi sweeps, each setting the walls
         (SetBoundaryVelocity's rule, applied by the kernel)."""
-        velocity, prev, dims = self.velocity, self.prev.read, self.dims
+        velocity, prev, dims = self.velocity, self._float4_prev(), self.dims
         dt32, visc = np.float32(dt), np.float32(self.params.visc)
         for _ in range(self.params.gs_iterations if sweeps is None else sweeps):
             self._grid("DiffuseVelocity", velocity.read, prev, velocity.write, *dims, dt32, visc)
@@ -308,12 +359,13 @@ class Simulation(StripSweeps, BaseSimulation):
         """ProjectStep1: prev = (0, div, prev.z, prev.w), the walls' div copied from inside (SetBoundaryDiv's rule;
         p = 0 everywhere, so SetBoundaryP's changes nothing). fixed: also divergence = div, pressure = 0, and with
         ``write_prev`` False prev is left alone (the step's first projection: SwapVelocity overwrites prev.xyz)."""
+        prev = self._float4_prev()
         if self.params.variant == "book":
-            self._grid("ProjectStep1", self.velocity.read, self.prev.read, *self.dims)
+            self._grid("ProjectStep1", self.velocity.read, prev, *self.dims)
             self.solving = False
         else:
-            fields = self.velocity.read, self.prev.read, self.divergence, self.pressure.read
-            self._grid("ProjectStep1", *fields, *self.dims, np.int32(write_prev))
+            fields = self.velocity.read, prev, self.divergence, self.pressure.read
+            self._grid("ProjectStep1", *fields, *self.dims, np.int32(write_prev), np.int32(0))
             self.solving = True
 
     def project_step2(self, sweeps: int | None = None) -> None:
@@ -350,22 +402,23 @@ class Simulation(StripSweeps, BaseSimulation):
 
     def swap_velocity(self) -> None:
         """SwapVelocity: prev.xyz = velocity."""
-        self._grid("SwapVelocity", self.velocity.read, self.prev.read, *self.dims)
+        self._grid("SwapVelocity", self.velocity.read, self._float4_prev(), *self.dims)
         self.solving = False  # prev.x overwritten, as the book's p
 
     def advect_velocity(self, dt: float) -> None:
         """AdvectVelocity: velocity = prev.xyz at the back-traced point, walls set (SetBoundaryVelocity's rule)."""
-        self._grid("AdvectVelocity", self.prev.read, self.velocity.read, *self.dims, np.float32(dt))
+        self._grid("AdvectVelocity", self._float4_prev(), self.velocity.read, *self.dims, np.float32(dt))
 
     def add_source_density(self, dt: float) -> None:
         """AddSourceDensity: density += source.w*density_coef*dt; prev.w = the same."""
         coef = np.float32(self.params.density_coef)
-        self._grid("AddSourceDensity", self.density.read, self.prev.read, self.source, *self.dims, coef, np.float32(dt))
+        prev = self._float4_prev()
+        self._grid("AddSourceDensity", self.density.read, prev, self.source, *self.dims, coef, np.float32(dt))
 
     def diffuse_density(self, dt: float, sweeps: int | None = None) -> None:
         """DiffuseDensity: ``sweeps`` (default gs_iterations) Jacobi sweeps, each setting the walls
         (SetBoundaryDensity's rule, applied by the kernel)."""
-        density, prev, dims = self.density, self.prev.read, self.dims
+        density, prev, dims = self.density, self._float4_prev(), self.dims
         dt32, diff = np.float32(dt), np.float32(self.params.diff)
         for _ in range(self.params.gs_iterations if sweeps is None else sweeps):
             self._grid("DiffuseDensity", density.read, prev, density.write, *dims, dt32, diff)
@@ -373,18 +426,20 @@ class Simulation(StripSweeps, BaseSimulation):
 
     def swap_density(self) -> None:
         """SwapDensity: prev.w = density."""
-        self._grid("SwapDensity", self.density.read, self.prev.read, *self.dims)
+        self._grid("SwapDensity", self.density.read, self._float4_prev(), *self.dims)
 
     def advect_density(self, dt: float) -> None:
         """AdvectDensity: density = prev.w at the point back-traced by the velocity, walls set (SetBoundaryDensity's
         rule)."""
-        self._grid("AdvectDensity", self.velocity.read, self.prev.read, self.density.read, *self.dims, np.float32(dt))
+        prev = self._float4_prev()
+        self._grid("AdvectDensity", self.velocity.read, prev, self.density.read, *self.dims, np.float32(dt))
 
     def advect_density_from_ext(self, dt: float, source: bool = True) -> None:
         """AdvectDensityFromExt: as AdvectDensity, back-traced by source.xyz. With the source off the original binds
         no source texture, whose reads are 0: the density stays put (as the 2D scene)."""
         field = self.source if source else self.no_source
-        self._grid("AdvectDensityFromExt", field, self.prev.read, self.density.read, *self.dims, np.float32(dt))
+        prev = self._float4_prev()
+        self._grid("AdvectDensityFromExt", field, prev, self.density.read, *self.dims, np.float32(dt))
 
     def draw(self) -> None:
         """Draw: solver = (u, v, w, density). step() leaves it to the first read of solver (solver_stale)."""
@@ -396,14 +451,48 @@ class Simulation(StripSweeps, BaseSimulation):
         velocity) as a (D, H, W) float16 array, then the largest density and speed over the grid, the values Draw
         writes into solver. 2 bytes a cell and 8 cross to the host instead of solver's 16 a cell, into page-locked
         copies (Runtime.read_back): the array is overwritten by the next call."""
+        self._draw_volume_kernel(field)
+        return self.runtime.read_back(self.volume), *self._maxima()
+
+    def _draw_volume_kernel(self, field: str) -> None:
+        """DrawVolume into volume and maxima (filled with INT_MIN first: the kernel's atomic_max starts there)."""
         rt = self.runtime
         cl.enqueue_fill_buffer(rt.queue, self.maxima.base_data, np.int32(np.iinfo(np.int32).min), 0, self.maxima.nbytes)
         which = np.int32(("density", "speed").index(field))
         self._grid("DrawVolume", self.velocity.read, self.density.read, self.volume, self.maxima, which, *self.dims)
-        volume, maxima = rt.read_back(self.volume), rt.read_back(self.maxima)
+
+    def _maxima(self) -> tuple[float, float]:
+        """The largest density and speed DrawVolume found (8 bytes read back)."""
+        maxima = self.runtime.read_back(self.maxima)
         bits = np.where(maxima >= 0, maxima, maxima ^ np.int32(0x7FFFFFFF))  # the kernel's ordered_int, its inverse
         max_density, max_speed = bits.view(np.float32)
-        return volume, float(max_density), float(max_speed)
+        return float(max_density), float(max_speed)
+
+    def ray_march(
+        self, inv_view_proj, eye, size: tuple[int, int], field: str = "density", absorption: float | None = None,
+        light_dir=(0.0, 1.0, 0.0),
+    ) -> tuple[np.ndarray, float, float]:  # fmt: skip
+        """RayMarchSmoke (not in the book; the view's smoke): the shown ``field`` ("density" or "speed") ray-marched
+        as viewer/shaders/stable_fluids_3d.frag's smoke display does, into a ``size`` = (W, H) picture: (H, W, 4)
+        uint8, premultiplied RGBA, row 0 the bottom row (GL's order); then the largest density and speed, as
+        draw_volume (DrawVolume runs first: the speed display is scaled by its max). The camera: ``inv_view_proj``
+        (4x4, clip -> scene coordinates, where the box is centred on the origin, its largest edge 1) and its ``eye``.
+        ``absorption``: extinction per unit value per box length (None: the absorption parameter); ``light_dir``:
+        towards the light (unit length). Only the picture (3.7 MB at 1280x720) and 8 bytes cross to the host, into
+        page-locked copies (Runtime.read_back): the picture is overwritten by the next call."""
+        width, height = size
+        if self.smoke_image is None or self.smoke_image.shape != (height, width, 4):
+            self.smoke_image = self.runtime.zeros((height, width, 4), np.uint8)
+        self._draw_volume_kernel(field)
+        matrix = np.asarray(inv_view_proj, np.float64).reshape(16)  # row-major: the kernel's rows
+        absorption = self.params.absorption if absorption is None else absorption
+        # 8 x 8 pixels a work-group: a GPU warp marches a 8 x 4 tile, whose rays read neighbouring cells
+        self.program.kernel("RayMarchSmoke").over(
+            (width, height), (8, 8), self.velocity.read, self.density.read, self.maxima, self.smoke_image,
+            np.int32(("density", "speed").index(field)), width, height, tuple(matrix), (*eye, 0.0), (*light_dir, 0.0),
+            float(absorption), *self.dims,
+        )  # fmt: skip
+        return self.runtime.read_back(self.smoke_image), *self._maxima()
 
     # }}}
 
@@ -433,13 +522,54 @@ class Simulation(StripSweeps, BaseSimulation):
         else:
             self.advect_density(dt)
 
+    def fused_step(self, dt: float, source: bool) -> None:
+        """The fixed variant's step(): velocity_step and density_step in 12 launches instead of 20 (gs_iterations 2,
+        source on), each moving fewer bytes, on prev split into float fields (_split_prev); the fields bit for bit
+        those of the book's kernels one by one (stable_fluids_3d.cl's header says which kernel does which)."""
+        p, dims, dt32 = self.params, self.dims, np.float32(dt)
+        self._split_prev()
+        velocity = not p.density_only
+        coefs = (np.float32(p.visc), np.float32(p.diff), np.float32(p.velocity_coef), np.float32(p.density_coef))
+        for sweep in range(p.gs_iterations):  # the first with the source on also adds it (AddSource*)
+            self._grid("DiffuseFields", self.velocity.read, self.velocity.write, self.density.read,
+                       self.density.write, self.source, *self._split_fields(), *dims, dt32, *coefs,
+                       np.int32(velocity), np.int32(source), np.int32(source and sweep == 0))  # fmt: skip
+            if velocity:
+                self.velocity.swap()
+            self.density.swap()
+        if velocity:
+            self._fused_project()
+            self._grid("SwapAdvectVelocity", self.velocity.read, self.velocity.write, self.prev_z, *dims, dt32)
+            self.velocity.swap()
+            self._fused_project()
+        carrier = self.velocity.read if velocity else self.source if source else self.no_source
+        self._grid("SwapAdvectDensity", carrier, self.density.read, self.density.write, *dims, dt32)
+        copy = self.density.read  # what SwapDensity copies into prev.w: kept as prev_density
+        self.density.read, self.density.write, self.prev_density = self.density.write, self.prev_density, copy
+
+    def _fused_project(self) -> None:
+        """project() as fused_step runs it: ProjectStep1 also does the first sweep, and prev is left alone (its x and
+        y are the pressure and divergence fields themselves)."""
+        dims = self.dims
+        self._grid("ProjectStep1", self.velocity.read, self.prev.read, self.divergence, self.pressure.read, *dims,
+                   np.int32(0), np.int32(1))  # fmt: skip
+        kernel = self.sweep_kernel
+        for _ in range(self.params.gs_iterations - 1):
+            self._grid(kernel, self.pressure.read, self.pressure.write, self.divergence, *dims)
+            self.pressure.swap()
+        self._grid("ProjectStep3", self.velocity.read, self.prev.read, self.pressure.read, *dims, np.int32(0))
+        self.set_boundary_velocity()
+
     def _step(self, dt: float) -> None:
         source = self.source_active()
         if source and not self.external_source and self._brush_of != self._emitter():
             self.add_source_brush3d()  # the same emitter writes the same source: only when it changed
-        if not self.params.density_only:
-            self.velocity_step(dt, source)
-        self.density_step(dt, source)
+        if self.params.variant == "fixed":
+            self.fused_step(dt, source)
+        else:
+            if not self.params.density_only:
+                self.velocity_step(dt, source)
+            self.density_step(dt, source)
         self.solver_stale = True  # Draw, once solver is read: nothing in a step reads it
 
     # {{{ state
@@ -467,7 +597,7 @@ class Simulation(StripSweeps, BaseSimulation):
             self.density.read.set(np.ascontiguousarray(density, np.float32))
         if prev is not None:
             self.prev.read.set(np.ascontiguousarray(prev, np.float32))
-            self.solving = False  # p = prev.x (a projection goes on from it: _place_p)
+            self.solving = self.prev_split = False  # p = prev.x (a projection goes on from it: _place_p)
 
     def solver_field(self) -> np.ndarray:
         """The Draw output (D, H, W, 4) = (u, v, w, density), drawn first if a step left it stale (the view reads
@@ -480,9 +610,7 @@ class Simulation(StripSweeps, BaseSimulation):
         if self.solver_stale:
             self.draw()
         velocity = self.velocity.read.get()[..., :3]
-        prev = self.prev.read.get()
-        if self.solving:  # mid-projection (fixed): prev as the book's would be, p in x
-            prev[..., 0] = self.pressure.read.get()
+        prev = self._prev_array()
         return {
             "velocity": np.ascontiguousarray(velocity),
             "density": self.density.read.get(),
@@ -498,7 +626,7 @@ class Simulation(StripSweeps, BaseSimulation):
         put(self.velocity.read, velocity, "velocity")
         put(self.density.read, state["density"], "density")
         put(self.prev.read, state["prev"], "prev")
-        self.solving = False  # state() put p into prev.x
+        self.solving = self.prev_split = False  # state() put p into prev.x
         put(self.solver, state["solver"], "solver")
         self.solver_stale = False
         put(self.source, state["source"], "source")
