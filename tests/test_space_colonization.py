@@ -455,7 +455,7 @@ def test_count_active_attractions_equals_the_records(runtime, seed, side):
     """CountActiveAttractions (the view's status line on a GPU) and the host's count (CPU devices) against the
     attraction records: all active, a random 90 % (sample_state), none, and after real steps."""
     sim = make(runtime, seed, side=side)
-    assert not sim.count_on_device, "PoCL counts on the host"
+    assert sim.count_on_device == runtime.is_gpu, "a GPU counts on the device, a CPU device on the host"
 
     def counts() -> list[int]:
         sim.count_on_device = True
@@ -516,19 +516,22 @@ def edge_lengths(runtime, seed: int, **overrides) -> tuple[np.ndarray, Simulatio
 
 def test_defaults_make_no_zero_length_edge(runtime):
     """The default repeat guard refuses a candidate on its own node, so no edge is shorter than 1e-3 growth
-    distances; the book (repeat_guard=false) makes such edges: 2 and 1 shorter than 1e-6 in these runs on PoCL (the
-    masses, nrand(parent, slot), and so the tree depend on the order the pool hands out slots: 0, 1, 2, ...).
+    distances; the book (repeat_guard=false) makes such edges in some runs: seeds are tried until one does (seed 3
+    makes 2 shorter than 1e-6 on PoCL; the masses, nrand(parent, slot), depend on the device's rounding and on the
+    order the pool hands out slots, so another device may need another seed), each seed's guarded run checked.
     The full-size check is `ugpcl run space_colonization --steps 200 --seed 2 --set iterations=1
     growth_speed=22` (see the chapter page)."""
     book_zero = 0
-    for seed in (3, 7):
+    for seed in (3, 7, 1, 2, 4, 5, 6, 8, 9, 10):
         length, sim = edge_lengths(runtime, seed)
         p = sim.params
         assert len(length) > 800 and sim.last_growth_step < 120
         assert length.min() >= 0.99e-3 * p.growth_distance * p.unit, f"seed {seed}: shortest edge {length.min():.3g}"
         book, _ = edge_lengths(runtime, seed, repeat_guard=False)
         book_zero += int((book < 1e-6).sum())
-    assert book_zero > 0, "the book's variant made no zero-length edge: the test shows nothing"
+        if book_zero:
+            break
+    assert book_zero > 0, "the book's variant made no zero-length edge in ten seeds: the test shows nothing"
 
 
 # }}}
