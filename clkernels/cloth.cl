@@ -10,6 +10,8 @@
 //      CSSimulation_cpu  the same substep for CPU_LANES particles of a row per work-item, in the lanes of float16
 //                    vectors (structure of arrays inside the work-item): what the host runs on CPU devices (PoCL),
 //                    whose work-group vectorizer gives up on CSSimulation's per-neighbour control flow
+//   then, for the surface view only (Simulation.pack_surface; not in the book):
+//   3. PackSurface   pos, normal -> surface: position and normal in 16 bytes a particle for GL
 // Buffers are float4 per particle, row-major, index y * W + x (y = H - 1 is the pinned top row), w = 1.
 // Build defines: NUM_THREADS_XY = work-group edge (book: 32; the host picks 16 where the device allows it)
 //                FIX_NAN = 1 guards the book's two normalize(0) cases (variant=fixed), 0 keeps them (variant=book,
@@ -261,4 +263,20 @@ __kernel void CSSimulation_cpu(const __global float4* pos_ro, const __global flo
         prev_rw[first + l] = (float4)(wx[2][l + 2], wy[2][l + 2], wz[2][l + 2], 1.0f);
         if (write_normal) normal_rw[first + l] = (float4)(out[3][l], out[4][l], out[5][l], 1.0f);
     }
+}
+
+// What the views fetch (viewer/views/cloth.py), 16 bytes a particle where pos and normal hold 32, since GL takes
+// host memory at about 4-5 GB/s on the lent H200: xyz = the position's float32 bits (a 1024^2 cloth 3.2 m wide has
+// 3 mm spacing, which half floats would merge), w = the normal as 10-bit signed normalised components, round(n * 511)
+// + 511 in 0..1022 (x in bits 0-9, y in 10-19, z in 20-29): 0 and -n exact mirrors of n (two-sided lighting flips
+// it), steps of 0.11 degrees where 8 bits' 0.45 would step the specular highlight (Blinn-Phong exponent 64). The
+// shaders decode both (uintBitsToFloat, shifts). A NaN component (variant=book) packs as 0.
+__kernel void PackSurface(const __global float4* pos, const __global float4* normal, __global uint4* surface,
+                          int n) {
+    const int i = get_global_id(0);
+    if (i >= n) return;
+    const float3 p = pos[i].xyz;
+    // vector bounds: Oclgrind's clamp(int3, int, int) clamps only the first component
+    const int3 q = clamp(convert_int3_sat_rte(normal[i].xyz * 511.0f), (int3)(-511), (int3)(511)) + 511;
+    surface[i] = (uint4)(as_uint(p.x), as_uint(p.y), as_uint(p.z), (uint)(q.x | (q.y << 10) | (q.z << 20)));
 }

@@ -44,6 +44,9 @@
 //   AdvectDensity        velocity, prev.z -> density: back-trace by the current velocity, bilinear +B(Density)
 //   AdvectDensityFromExt  source.xy, prev.z -> density: back-trace by the brush velocity (density_only) +B(Density)
 //   Draw                 velocity, density -> solver = (u, v, density, 1)
+//   DrawTexture          velocity, density -> texture, top: the view's copy (not in the book; runs when the view
+//                        asks, Simulation.draw_texture): only the field its display mode shows, as half floats,
+//                        and that field's largest magnitude
 //   the rules on their own (Simulation.set_boundary_*; step() applies them inside the kernels above):
 //   SetBoundaryDensity   density
 //   SetBoundaryDivergence  prev.y (the divergence)
@@ -540,6 +543,60 @@ __kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, 1)))
 void Draw(const __global float2* velocity, const __global float* density, __global float4* solver, int w, int h) {
     CELL_OR_RETURN(w, h)
     solver[i] = (float4)(velocity[i], density[i], 1.0f);
+}
+
+// Not in the book: what the view (viewer/views/stable_fluids_2d.py) samples, where Draw's solver has 16 bytes a cell:
+// GL takes host memory at about 4-5 GB/s on the lent H200, so a 2048^2 frame moves 8 or 16 MB instead of 67.
+// shown: 0 = density (ink, density display; 2 bytes a cell), 1 = (u, v) (velocity; 4 bytes), 2 = the divergence
+// du/dx + dv/dy by central differences over a domain of length 1, zero outside the grid (divergence; 2 bytes; as
+// ugpcl.scenes.stable_fluids_2d.central_divergence, which the view's shader used to take itself). Written as half
+// floats (vstore_half, rounded to nearest), clamped to half's range where a float beyond it would turn inf.
+// top[0] = the largest |value| of the float field (of u and v for velocity; not taken for the density, which no
+// display scales), as the bits of a non-negative float, which order as ints: a column, then a row of the work-group,
+// then one atomic_max per group (the host zeroes top first).
+#define GROUP_SIZE (THREAD_X * THREAD_Y)
+#define HALF_MAX 65504.0f
+
+__kernel __attribute__((reqd_work_group_size(THREAD_X, THREAD_Y, 1)))
+void DrawTexture(const __global float2* velocity, const __global float* density, __global half* texture,
+                 volatile __global int* top, int shown, int w, int h) {
+    __local int group_top[GROUP_SIZE];
+    const int x = get_global_id(0), y = get_global_id(1);
+    const int l = get_local_id(1) * THREAD_X + get_local_id(0);
+    float largest = 0.0f;  // padding items of the rounded-up global size keep 0 (and run every barrier)
+    if (x < w && y < h) {
+        const int i = y * w + x;
+        if (shown == 1) {
+            const float2 v = velocity[i];
+            vstore_half2(clamp(v, -HALF_MAX, HALF_MAX), i, texture);
+            largest = fmax(fabs(v.x), fabs(v.y));
+        } else {
+            float value;
+            if (shown == 2) {
+                const float du = ld2(velocity, x + 1, y, w, h, false).x - ld2(velocity, x - 1, y, w, h, false).x;
+                const float dv = ld2(velocity, x, y + 1, w, h, false).y - ld2(velocity, x, y - 1, w, h, false).y;
+                value = 0.5f * (du * w + dv * h);
+            } else {
+                value = density[i];
+            }
+            vstore_half(clamp(value, -HALF_MAX, HALF_MAX), i, texture);
+            largest = fabs(value);
+        }
+    }
+    if (shown == 0) return;  // no display scales the density (the same for the whole launch: no barrier is split)
+    group_top[l] = as_int(largest);
+    barrier(CLK_LOCAL_MEM_FENCE);
+    if (l < THREAD_X) {  // item l takes column l's maximum into row 0
+        int column = group_top[l];
+        for (int r = 1; r < THREAD_Y; r++) column = max(column, group_top[r * THREAD_X + l]);
+        group_top[l] = column;
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
+    if (l == 0) {
+        int row = group_top[0];
+        for (int c = 1; c < THREAD_X; c++) row = max(row, group_top[c]);
+        atomic_max(top, row);
+    }
 }
 
 // {{{ the other boundary rules on their own (Simulation.set_boundary_*; the kernels above apply them in step())

@@ -71,6 +71,15 @@ def cloth_step_reference(pos, prev, normal, *, rest, gravity, stiffness, damp, i
     return np.where(pinned, pos, new), np.where(pinned, prev, pos), np.where(pinned, normal, n), ambiguous
 
 
+def pack_surface_reference(pos, normal) -> np.ndarray:
+    """PackSurface's (..., 4) uint32 words: the positions' float32 bits, then the normal as round(n * 511) + 511 in
+    10 bits a component (x lowest; a NaN component as 0), rounded half to even as the kernel's _rte."""
+    normal = np.nan_to_num(np.asarray(normal, np.float32), nan=0.0)
+    q = (np.clip(np.rint(normal * np.float32(511.0)), -511, 511) + 511).astype(np.uint32)
+    word = q[..., 0] | q[..., 1] << 10 | q[..., 2] << 20
+    return np.concatenate([np.asarray(pos, np.float32).view(np.uint32), word[..., None]], axis=-1)
+
+
 def reference_args(p: Params, sphere=None) -> dict:
     return {
         "rest": p.rest_length,
@@ -521,6 +530,21 @@ def test_cli_run_writes_the_chapter_page_arrays(capsys, tmp_path):
 # {{{ views
 
 
+@pytest.mark.parametrize("res", [(17, 17), (33, 7)])  # 289 and 231 particles: a part group of 256 either way
+def test_pack_surface_keeps_positions_exact_and_normals_to_10_bits(runtime, res, seed):
+    """PackSurface (the views' upload): the positions' float32 bits and the normals as 10-bit signed components."""
+    sim = make(runtime, res)
+    sim.set_positions(*perturbed(*res, 0.02, seed))
+    sim.cs_simulation()  # every particle gets a ring normal
+    state = sim.state()
+    packed = sim.pack_surface().get()
+    assert packed.dtype == np.uint32 and packed.shape == (res[1], res[0], 4)
+    np.testing.assert_array_equal(packed[..., :3].view(np.float32), state["pos"])
+    np.testing.assert_array_equal(packed, pack_surface_reference(state["pos"], state["normal"]))
+    decoded = ((packed[..., 3:] >> np.array([0, 10, 20], np.uint32)) & 1023) / 511.0 - 1.0  # as cloth.vert
+    assert np.abs(decoded - state["normal"]).max() <= 0.5 / 511 + 1e-6
+
+
 @pytest.fixture(scope="module")
 def draped(runtime):
     """A 32 x 32 cloth (3.2 m, as the main scene) after the sphere has pushed through it (frame 1000: z = -1.47)."""
@@ -658,6 +682,29 @@ def test_view_keys_change_the_simulation(runtime, gl):
     assert sim.params.res == (64, 64) and sim.params.timestep == 0.01 and sim.steps == 0
 
 
+@pytest.mark.gl
+def test_views_upload_16_bytes_a_particle(runtime, gl):
+    """The surface and the debug render get PackSurface's 16 bytes a particle, not pos and normal's 32; the G key's
+    thumbnails add the five float4 buffers."""
+    from ugpcl.viewer.views import create_view
+
+    scene = get("cloth")
+    sim = scene.create(runtime, res=(24, 20))
+    view = create_view(scene, gl, sim)
+    for expected in (16, 16, 16 + 5 * 16):  # surface, debug render, debug render with thumbnails
+        before = runtime.read_back_bytes
+        view.upload()
+        assert runtime.read_back_bytes - before == 24 * 20 * expected, (view.debug, view.show_buffers)
+        if not view.debug:
+            view.toggle_debug()
+        else:
+            view.toggle_buffers()
+    assert view.finite
+    sim.set_positions(np.full((20, 24, 3), np.inf))  # the status line's DIVERGED reads the packed positions
+    view.upload()
+    assert not view.finite
+
+
 # }}}
 
 
@@ -676,7 +723,9 @@ def test_kernels_on_oclgrind(oclgrind, runtime, kernel, seed):
             sim.sphere_params = np.array([0.0, -0.05, 0.03, 0.1], np.float32)
             sim.cs_simulation()
             sim.cs_simulation()
-            results[name, variant] = sim.state()
+            results[name, variant] = state = sim.state()
+            packed = sim.pack_surface().get()  # PackSurface: 54 particles of a group of 256
+            np.testing.assert_array_equal(packed, pack_surface_reference(state["pos"], state["normal"]))
         fresh = Simulation(rt, Params(res=(9, 6), rest_length=0.05, num_threads_xy=4))  # CSInit + copies
         results[name, "init"] = fresh.state()
     for key in ("fixed", "book", "init"):

@@ -30,7 +30,7 @@ from reference.stable_fluids_2d import (
 
 from ugpcl.registry import get
 from ugpcl.runtime import KERNEL_DIR, Kernel
-from ugpcl.scenes.stable_fluids_2d import KERNELS, Params, Simulation
+from ugpcl.scenes.stable_fluids_2d import KERNELS, TEXTURE_FIELDS, Params, Simulation, central_divergence
 
 W, H = 37, 23
 RADIUS = 0.08  # the scene's 0.022 covers only a few cells below 128^2
@@ -245,6 +245,34 @@ def test_swaps_and_draw_copy(runtime, seed):
     np.testing.assert_array_equal(
         s["solver"], np.concatenate([f["velocity"], f["density"][..., None], np.ones((H, W, 1))], -1)
     )
+
+
+@pytest.mark.parametrize("cell", [(0, 0), (H - 1, W - 1), (15, 15)])  # first group, last (padded), a group's corner
+def test_draw_texture_is_the_shown_field_as_half_floats(runtime, seed, cell):
+    """DrawTexture (the view's upload): each field a display mode shows, rounded to half floats as numpy rounds
+    them, and its largest magnitude over 8 x 8 work-groups on 37 x 23 cells (padding in the last ones), the largest
+    density and velocity component at ``cell``; beyond half's range the largest half is stored, not inf."""
+    rng = np.random.default_rng(seed)
+    sim = make(runtime, local_size=(8, 8))
+    f = {k: v.astype(np.float32) for k, v in random_fields(rng, W, H).items()}
+    f["density"][cell], f["velocity"][cell] = 1.5, (0.25, -1.5)  # random values lie in [-1, 1]
+    sim.set_fields(velocity=f["velocity"], density=f["density"])
+    shown = {"density": f["density"], "velocity": f["velocity"], "divergence": central_divergence(f["velocity"])}
+    assert tuple(shown) == tuple(TEXTURE_FIELDS)
+    for field, values in shown.items():
+        texture, top = sim.draw_texture(field)
+        assert texture.dtype == np.float16 and texture.shape == values.shape, field
+        if field == "divergence":  # float32 on the device, float64 in numpy: half's rounding may fall either side
+            close(texture, values, 2.0**-11, 1e-6)
+            assert top == pytest.approx(np.abs(values).max(), rel=1e-6)
+        else:
+            np.testing.assert_array_equal(texture, values.astype(np.float16), err_msg=field)
+            assert top == (1.5 if field == "velocity" else 0.0), field  # no display scales the density
+    f["density"][cell], f["velocity"][cell] = 1e6, (0.0, -1e6)
+    sim.set_fields(velocity=f["velocity"], density=f["density"])
+    for field in ("density", "velocity"):
+        texture, top = sim.draw_texture(field)
+        assert np.abs(texture[cell]).max() == 65504.0 and top == (1e6 if field == "velocity" else 0.0), field
 
 
 @pytest.mark.parametrize(
@@ -532,6 +560,34 @@ def test_view_drag_paints_and_keys_change_the_simulation(runtime, gl):
     assert keys >= {"tab", "6", "v", "d", "+", "-", "[", "]", "up", "down", "left", "right"}
 
 
+@pytest.mark.gl
+def test_view_uploads_only_the_shown_field_as_half_floats(runtime, gl):
+    """GL gets 2 bytes a cell for ink, density and divergence and 4 for velocity (and the 4 of the maximum), not
+    the solver's 16; the velocity and divergence scales are the whole grid's maxima; every mode draws a picture."""
+    from ugpcl.viewer.offscreen import frame
+    from ugpcl.viewer.views import create_view
+
+    scene = get("stable_fluids_2d")
+    sim = scene.create(runtime, width=64, height=36, source_radius=RADIUS, stroke="line")
+    for _ in range(30):
+        sim.step()
+    view = create_view(scene, gl, sim)
+    camera = view.make_camera()
+    camera.aspect = 16 / 9
+    velocity = sim.state()["velocity"]
+    for display, per_cell in (("ink", 2), ("density", 2), ("velocity", 4), ("divergence", 2)):
+        assert view.display == display
+        before = runtime.read_back_bytes
+        view.upload()
+        assert runtime.read_back_bytes - before == 64 * 36 * per_cell + 4, display
+        assert view.texture.dtype == "f2" and view.texture.components * 2 == per_cell
+        pixels = frame((128, 72)).render(view, camera).astype(int)
+        assert np.ptp(pixels, axis=(0, 1)).max() > 100, f"{display}: a flat picture"
+        view.next_display()
+    assert view.velocity_scale == pytest.approx(1 / np.abs(velocity).max(), rel=1e-6)
+    assert view.divergence_scale == pytest.approx(1 / np.abs(central_divergence(velocity)).max(), rel=1e-5)
+
+
 # }}}
 
 
@@ -549,6 +605,11 @@ def test_kernels_on_oclgrind(oclgrind, variant):
         sim.update(stroke="none")
         sim.step()  # the same without AddSource* (AdvectDensityFromExt with no brush)
         assert np.isfinite(sim.state()["density"]).all() and sim.state()["density"].max() > 0
+        state = sim.state()
+        for field in TEXTURE_FIELDS:  # DrawTexture: 3 x 2 groups of 4 x 4, padding in both axes
+            texture, top = sim.draw_texture(field)
+            close(texture, state[field], 2.0**-11, 1e-6)
+            assert top == (pytest.approx(np.abs(state[field]).max(), rel=1e-5) if field != "density" else 0.0), field
     if variant == "fixed":  # the GPUs' strip sweep: two strips of 4 cells, part strips of rows at the top
         strips = Simulation(oclgrind, Params(width=8, height=7, local_size=(4, 4), stroke="line"))
         strips.sweep_kernel = "ProjectStep2Rows"

@@ -6,7 +6,8 @@ time (``ColliderTranslate``: z = TranslateCenterZ + cos(0.125 t) * TranslateLeng
 ``substeps`` times with dt = timestep / substeps, the position and previous-position buffers swapped (ping-pong)
 after each launch. ``reset()`` runs ``CSInit`` and copies both pairs, as the book's ``ResetBuffer`` Blits.
 ``step(dt)``'s dt is the frame's duration (1/fps): it drives the sphere only; the cloth always advances
-``timestep`` per frame, as the book's fixed TimeStep.
+``timestep`` per frame, as the book's fixed TimeStep. ``pack_surface()`` (``PackSurface``, not in the book) packs
+position and normal into the 16 bytes a particle the views upload to GL.
 
 On a CPU device (PoCL) the substep runs ``CSSimulation_cpu`` instead of the book's ``CSSimulation``: 16 particles of a
 row per work-item in the lanes of float16 vectors, the same arithmetic (PoCL's work-group vectorizer gives up on
@@ -146,6 +147,7 @@ class Simulation(BaseSimulation):
         self.pos = PingPong.zeros(rt, shape, np.float32)  # book: _posBuff[0] (.read), _posBuff[1] (.write)
         self.prev = PingPong.zeros(rt, shape, np.float32)  # book: _posPrevBuff
         self.normal = rt.zeros(shape, np.float32)  # book: _normBuff
+        self.surface = rt.zeros(shape, np.uint32)  # pack_surface: what the views upload (position, packed normal)
         # the substep's kernel (tests may set the other): PoCL does not vectorize the book's kernel across
         # work-items, so CPU devices get the vector-lane one; Oclgrind keeps the book's kernel to check it
         cpu = bool(rt.device.type & cl.device_type.CPU) and not rt.is_oclgrind
@@ -228,6 +230,14 @@ class Simulation(BaseSimulation):
         prev.swap()
 
     # }}}
+
+    def pack_surface(self):
+        """PackSurface (not in the book; the views'): the (H, W, 4) uint32 device array of position (xyz, the
+        float32 bits) and normal (w: round(n * 511) + 511 in 10 bits a component, x in bits 0-9, y 10-19, z 20-29), 16
+        bytes a particle instead of pos and normal's 32."""
+        n = self.width * self.height
+        self.program.kernel("PackSurface").over(n, 256, self.pos.read, self.normal, self.surface, np.int32(n))
+        return self.surface
 
     def cs_substeps(self) -> None:
         """A frame's ``substeps`` CSSimulation launches, the normal written by the last: only that one is drawn, and

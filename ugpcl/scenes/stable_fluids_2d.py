@@ -10,6 +10,7 @@ as the book's kernels call their SetBoundary* helper at the end):
     density step:
       [AddSourceDensity] -> gs x DiffuseDensity+B -> SwapDensity -> AdvectDensity+B (AdvectDensityFromExt+B)
     Draw
+    DrawTexture                                                  (when a view asks: draw_texture)
     Project = ProjectStep1+B(Divergence) -> gs x ProjectStep2+B(DivPositive) -> ProjectStep3 -> SetBoundaryVelocity
 
 A default step (gs_iterations 2, brush held) is 22 launches. The AddSource kernels run only on frames with the brush
@@ -33,6 +34,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import pyopencl as cl
 import pyopencl.array as cla
 import pyopencl.cltypes as cltypes
 
@@ -63,12 +65,16 @@ KERNELS = (
     "AdvectDensity",
     "AdvectDensityFromExt",
     "Draw",
+    "DrawTexture",
     "SetBoundaryDensity",
     "SetBoundaryDivergence",
     "SetBoundaryDivPositive",
 )
 """The kernels of stable_fluids_2d.cl in host call order (its header's list); the last three only for set_boundary_*.
-ProjectStep2Rows is ProjectStep2 in strips (sweep_kernel), built for the fixed variant only."""
+ProjectStep2Rows is ProjectStep2 in strips (sweep_kernel), built for the fixed variant only; DrawTexture only for the
+view (draw_texture)."""
+TEXTURE_FIELDS = {"density": 1, "velocity": 2, "divergence": 1}
+"""What draw_texture can write (DrawTexture's ``shown``, in this order) and its half floats a cell."""
 ROWS_PER_ITEM = 2
 """Rows of the 4-cell strip one work-item of ProjectStep2Rows sweeps (its ROWS define)."""
 ROWS_LOCAL = (64, 2)
@@ -196,7 +202,8 @@ class Simulation(StripSweeps, BaseSimulation):
         floats = {"velocity": 2, "velocity (write)": 2, "density": 1, "density (write)": 1, "prev": 4,
                   "prev (write)": 4, "divergence": 1, "pressure": 1, "pressure (write)": 1, "source": 4,
                   "no source": 4, "solver": 4}  # the fields of _reset  # fmt: skip
-        return [Allocation(f"{name} field", cells * 4 * n, "width") for name, n in floats.items()]
+        fields = [Allocation(f"{name} field", cells * 4 * n, "width") for name, n in floats.items()]
+        return [*fields, Allocation("view texture (half floats)", cells * 2 * 2, "width")]
 
     def _reset(self) -> None:
         p, rt = self.params, self.runtime
@@ -213,6 +220,9 @@ class Simulation(StripSweeps, BaseSimulation):
         self.source = rt.zeros((*self.shape, 4), np.float32)
         self.no_source = rt.zeros((*self.shape, 4), np.float32)  # what AdvectDensityFromExt reads with no brush
         self.solver = rt.zeros((*self.shape, 4), np.float32)
+        # draw_texture: the view's half floats (up to 2 a cell: velocity) and their largest magnitude
+        self.texture = rt.zeros(self.w * self.h * 2, np.float16)
+        self.texture_top = rt.zeros(1, np.int32)
         self.pending_brush: tuple[float, float, float, float] | None = None
         self.last_brush: tuple[float, float, float, float] | None = None
         self.stroke_start = 0
@@ -400,6 +410,21 @@ class Simulation(StripSweeps, BaseSimulation):
     def draw(self) -> None:
         """Draw: solver = (u, v, density, 1)."""
         self._grid("Draw", self.velocity.read, self.density.read, self.solver, *self.dims)
+
+    def draw_texture(self, field: str = "density") -> tuple[np.ndarray, float]:
+        """DrawTexture (not in the book; the view's): ``field`` ("density", "velocity" (u, v) or "divergence", the
+        central differences of central_divergence) as an (H, W) or (H, W, 2) float16 array, and the largest magnitude
+        of its float values (of u and v for velocity; 0 for the density, which no display scales). 2 or 4 bytes a
+        cell and 4 cross to the host instead of solver's 16 a cell, into page-locked copies (Runtime.read_back):
+        the array is overwritten by the next call."""
+        rt, channels = self.runtime, TEXTURE_FIELDS[field]
+        cl.enqueue_fill_buffer(rt.queue, self.texture_top.base_data, np.int32(0), 0, self.texture_top.nbytes)
+        shown = np.int32(list(TEXTURE_FIELDS).index(field))
+        args = (self.velocity.read, self.density.read, self.texture, self.texture_top, shown, *self.dims)
+        self._grid("DrawTexture", *args)
+        texture = rt.read_back(self.texture, self.w * self.h * channels)
+        top = rt.read_back(self.texture_top).view(np.float32)  # non-negative floats' bits (see the kernel)
+        return texture.reshape(self.shape if channels == 1 else (*self.shape, channels)), float(top[0])
 
     def _dfdt(self, dt: float) -> np.float32:
         return np.float32(dt * (self.w + self.h) * 0.5)  # book: dfdt = dt * (w + h) * 0.5, cells per unit velocity

@@ -2,10 +2,12 @@
 ClothSurface.shader), and the debug render (GPUClothDebugRenderer + DebugRenderShader.shader): mass points as
 sprites and the structural, shear and bend springs as additive lines on black. D switches between the two.
 
-Positions and normals go from the OpenCL buffers into two RGBA32F textures each frame; the surface's vertex
-shader and the points' geometry shader fetch them by vertex id (texelFetch), as the book's shaders sample its
-RenderTextures. Unity's left-handed coordinates are kept: OrbitCamera mirrors z, so winding is mirrored too, which
-is why the cloth is drawn without culling and lit on whichever side faces the eye.
+Positions and normals go from the OpenCL buffers into one RGBA32UI texture each frame, packed on the device into
+16 bytes a particle (Simulation.pack_surface: the position's float bits, the normal in 10 bits a component; half of the
+float buffers' 32); the surface's and the points' vertex shaders fetch them by vertex id (texelFetch), as the book's
+shaders sample its RenderTextures. The G key's thumbnails show the float buffers themselves. Unity's left-handed
+coordinates are kept: OrbitCamera mirrors z, so winding is mirrored too, which is why the cloth is drawn without
+culling and lit on whichever side faces the eye.
 """
 
 from __future__ import annotations
@@ -81,7 +83,8 @@ class View(BaseView):
         self.thumbnail_vao = ctx.vertex_array(self.thumbnail, [(self.quad, "2f", "in_corner")])
         self.points_vao = ctx.vertex_array(self.points, [])
         self.springs = {family: Lines(ctx, color=DEBUG_COLORS[family]) for family in ("structural", "shear", "bend")}
-        self.textures: dict[str, moderngl.Texture] = {}
+        self.textures: dict[str, moderngl.Texture] = {}  # the G key's thumbnails: the float buffers
+        self.surface_texture = None  # pack_surface's words
         self.size = None  # (W, H) the GL objects were made for
         self.finite = True
         self.debug, self.wireframe, self.show_buffers = self.start_debug, False, False
@@ -100,8 +103,11 @@ class View(BaseView):
             texture.repeat_x = texture.repeat_y = False  # book: TextureWrapMode.Clamp
             self.textures[name] = texture
         if self.size is not None:
+            self.surface_texture.release()
             self.cloth_ibo.release()
             self.cloth_vao.release()
+        self.surface_texture = self.ctx.texture((width, height), 4, dtype="u4")  # RGBA32UI: fetched, never filtered
+        self.surface_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.triangles = grid_triangles(width, height)
         self.cloth_ibo = self.ctx.buffer(self.triangles.tobytes())
         self.cloth_vao = self.ctx.vertex_array(self.surface, [], index_buffer=self.cloth_ibo, index_element_size=4)
@@ -112,13 +118,17 @@ class View(BaseView):
         sim = self.sim
         if self.size != (sim.width, sim.height):
             self._resize(sim.width, sim.height)
-        names = BUFFERS if self.show_buffers else ("pos", "normal")
-        data = {name: sim.runtime.read_back(sim.buffer(name)) for name in names}  # page-locked, straight to GL
-        self.finite = bool(np.isfinite(data["pos"]).all())
-        for name, values in data.items():
-            self.textures[name].write(values)
+        surface = sim.runtime.read_back(sim.pack_surface())  # page-locked, straight to GL
+        self.surface_texture.write(surface)
+        # all four words as floats, contiguous (a strided xyz view checks 6x slower): the packed normal never sets
+        # bit 30, so it reads as a finite float, and only the positions can be NaN or inf
+        self.finite = bool(np.isfinite(surface.view(np.float32)).all())
+        pos = surface[..., :3].view(np.float32)  # the positions' bits, exact
+        if self.show_buffers:
+            for name in BUFFERS:
+                self.textures[name].write(sim.runtime.read_back(sim.buffer(name)))
         if self.debug:
-            pos = data["pos"][..., :3].reshape(-1, 3)
+            pos = pos.reshape(-1, 3)
             for family, lines in self.springs.items():
                 lines.set(pos[self.pairs[family]])
 
@@ -145,10 +155,8 @@ class View(BaseView):
         set_camera(self.surface, camera)
         self.surface["albedo"].value = CLOTH_COLOR
         self.surface["smoothness"].value = SMOOTHNESS
-        self.surface["position_buffer"].value = 0
-        self.surface["normal_buffer"].value = 1
-        self.textures["pos"].use(0)
-        self.textures["normal"].use(1)
+        self.surface["surface"].value = 0
+        self.surface_texture.use(0)
         self.ctx.wireframe = self.wireframe
         self.cloth_vao.render(moderngl.TRIANGLES)
         self.ctx.wireframe = False
@@ -170,8 +178,8 @@ class View(BaseView):
         set_camera(self.points, camera)
         set_uniform(self.points, "particle_size", PARTICLE_SIZE)
         set_uniform(self.points, "color", DEBUG_COLORS["points"])
-        self.points["position_buffer"].value = 0
-        self.textures["pos"].use(0)
+        self.points["surface"].value = 0
+        self.surface_texture.use(0)
         self.points_vao.render(moderngl.POINTS, vertices=self.sim.width * self.sim.height)
         self.ctx.disable(moderngl.BLEND)
         self.ctx.enable(moderngl.DEPTH_TEST)

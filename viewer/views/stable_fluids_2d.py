@@ -1,12 +1,13 @@
-"""Stable fluids 2D view (vol.1 ch.4, RenderEffect + Sample.shader): the solver texture on a quad, black ink on
-white; drag with the mouse to paint velocity and ink (the book's MouseSourceProvider)."""
+"""Stable fluids 2D view (vol.1 ch.4, RenderEffect + Sample.shader): the solver's field on a quad, black ink on
+white; drag with the mouse to paint velocity and ink (the book's MouseSourceProvider). GL gets only the field the
+display mode shows, as half floats (Simulation.draw_texture: 2 or 4 bytes a cell, not the solver's 16)."""
 
 from __future__ import annotations
 
 import moderngl
 import numpy as np
 
-from ugpcl.scenes.stable_fluids_2d import STROKES, central_divergence
+from ugpcl.scenes.stable_fluids_2d import STROKES, TEXTURE_FIELDS
 
 from ..camera import FlatCamera
 from ..gl import load_program, set_camera, set_uniform
@@ -15,6 +16,8 @@ from . import View as BaseView
 
 DISPLAY_MODES = ("ink", "density", "velocity", "divergence")
 """What Tab cycles through: the book's ink, density in grey, velocity as colour, |divergence| as heat."""
+SHOWN_FIELD = {"ink": "density", "density": "density", "velocity": "velocity", "divergence": "divergence"}
+"""The field each display mode samples (Simulation.draw_texture)."""
 RADIUS_STEP = 1.25
 """+ and - scale source_radius by this factor."""
 MAX_SWEEPS = 4096
@@ -84,21 +87,22 @@ class View(FluidKeyActions, BaseView):
         return FlatCamera(rect=self._rect())
 
     def upload(self) -> None:
-        w, h = self.sim.w, self.sim.h
-        field = self.sim.runtime.read_back(self.sim.solver)  # page-locked, straight to GL
-        if self.texture is None or self.texture.size != (w, h):
+        w, h, shown = self.sim.w, self.sim.h, SHOWN_FIELD[self.display]
+        field, top = self.sim.draw_texture(shown)  # page-locked half floats, straight to GL
+        components = TEXTURE_FIELDS[shown]
+        if self.texture is None or (self.texture.size, self.texture.components) != ((w, h), components):
             if self.texture is not None:
                 self.texture.release()
-            self.texture = self.ctx.texture((w, h), 4, dtype="f4")
+            self.texture = self.ctx.texture((w, h), components, dtype="f2")  # R16F or RG16F
             self.texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
             self.texture.repeat_x = self.texture.repeat_y = False
             quad = np.array([[0, 0, 0, 0], [w, 0, 1, 0], [0, h, 0, 1], [w, h, 1, 1]], "f4")
             self.vbo.write(quad.tobytes())
         self.texture.write(field)  # row 0 = the bottom, as GL expects
         if self.display == "velocity":
-            self.velocity_scale = 1.0 / max(float(np.abs(field[..., :2]).max()), 1e-6)
+            self.velocity_scale = 1.0 / max(top, 1e-6)
         elif self.display == "divergence":
-            self.divergence_scale = 1.0 / max(float(np.abs(central_divergence(field[..., :2])).max()), 1e-6)
+            self.divergence_scale = 1.0 / max(top, 1e-6)
         if self.held is not None and self.sim.pending_brush is None:
             self.sim.brush(*self.held)  # button held still: ink keeps flowing in, as in the original
 
@@ -113,7 +117,7 @@ class View(FluidKeyActions, BaseView):
         set_uniform(self.program, "velocity_scale", self.velocity_scale)
         set_uniform(self.program, "divergence_scale", self.divergence_scale)
         self.texture.use(0)
-        set_uniform(self.program, "solver", 0)
+        set_uniform(self.program, "field", 0)
         self.vao.render(moderngl.TRIANGLE_STRIP)
 
     def status(self) -> list[str]:
