@@ -12,7 +12,8 @@
 //                     are read from its cell-ordered copy (GridCopyItemsInCellOrder), one work-item per slot
 //   2. IntegrateCS    boid_data, boid_force -> boid_data: wall avoidance, explicit Euler, |velocity| <= max_speed
 //   then, for the view only (a large flock drawn a point each):
-//   3. PackBoidsHalf  boid_data -> position and velocity as half4 pairs, 16 bytes a boid
+//   3. PackBoidsHalf  boid_data -> position and velocity as half4 pairs, 16 bytes a boid, and the flock's
+//                     bounding box (what a picture frames), reduced in the work-group, then 6 atomics per group
 // Build defines: SIMULATION_BLOCK_SIZE = work-group size = tile length (book: 256).
 // Differences from the book: n need not be a multiple of the block size (padding work-items run every barrier
 // and write nothing); a rule whose average direction is the zero vector steers by 0 instead of normalize(0) = NaN;
@@ -300,9 +301,40 @@ __kernel void IntegrateCS(__global Boid* boid_data, const __global float4* boid_
 // The view's copy of a large flock (viewer/views/boids.py, above POINT_BOIDS boids, drawn a point each): position
 // then velocity as half4, 16 bytes a boid instead of 32, since GL takes host data at about 4 GB/s on the lent H200.
 // Half floats keep 11 bits: 0.06 units at 100 units from the centre, a fraction of a pixel at that flock's scale.
-__kernel void PackBoidsHalf(const __global Boid* boid_data, int n, __global half* packed) {
-    const int i = get_global_id(0);
-    if (i >= n) return;
-    vstore_half4(boid_data[i].position, 2 * i, packed);
-    vstore_half4(boid_data[i].velocity, 2 * i + 1, packed);
+// bounds = (min x, y, z, max x, y, z) of the positions as ordered ints (the host fills it with INT_MAX x 3, INT_MIN
+// x 3 first): numpy took tens of ms to scan a million half floats for a picture's framing.
+#define PACK_GROUP 256
+inline int ordered_int(float v) {  // an int whose order is the floats' (negative floats reversed); its own inverse
+    const int i = as_int(v);
+    return i >= 0 ? i : i ^ 0x7fffffff;
+}
+
+__kernel __attribute__((reqd_work_group_size(PACK_GROUP, 1, 1))) void PackBoidsHalf(
+    const __global Boid* boid_data, int n, __global half* packed, volatile __global int* bounds) {
+    __local float4 lo[PACK_GROUP], hi[PACK_GROUP];
+    const int i = get_global_id(0), l = get_local_id(0);
+    lo[l] = (float4)(INFINITY);
+    hi[l] = (float4)(-INFINITY);
+    if (i < n) {
+        const float4 p = boid_data[i].position;
+        vstore_half4(p, 2 * i, packed);
+        vstore_half4(boid_data[i].velocity, 2 * i + 1, packed);
+        lo[l] = hi[l] = (float4)(p.xyz, 0.0f);
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (int half_size = PACK_GROUP / 2; half_size > 0; half_size /= 2) {
+        if (l < half_size) {
+            lo[l] = fmin(lo[l], lo[l + half_size]);
+            hi[l] = fmax(hi[l], hi[l + half_size]);
+        }
+        barrier(CLK_LOCAL_MEM_FENCE);
+    }
+    if (l == 0 && get_group_id(0) * PACK_GROUP < n) {
+        atomic_min(&bounds[0], ordered_int(lo[0].x));
+        atomic_min(&bounds[1], ordered_int(lo[0].y));
+        atomic_min(&bounds[2], ordered_int(lo[0].z));
+        atomic_max(&bounds[3], ordered_int(hi[0].x));
+        atomic_max(&bounds[4], ordered_int(hi[0].y));
+        atomic_max(&bounds[5], ordered_int(hi[0].z));
+    }
 }

@@ -503,7 +503,8 @@ def test_kernels_on_oclgrind(oclgrind, seed):
     grid.set_boids(*spread_state(300, seed, half_size=1.5))
     grid.step()  # GridHash, the scan, GridScatter, GridSortCells, GridCopyItemsInCellOrder, ForceCS_grid
     np.testing.assert_allclose(grid.state()["position"], naive.state()["position"], rtol=1e-5, atol=1e-5)
-    packed = grid.packed_boids().get().astype(np.float32)  # PackBoidsHalf: the view's half-float copy
-    state = grid.state()
+    packed, box = grid.packed_boids()  # PackBoidsHalf: the view's half-float copy and the flock's bounding box
+    packed, state = packed.get().astype(np.float32), grid.state()
     np.testing.assert_allclose(packed[:, :3], state["position"], rtol=1e-3, atol=1e-3)
     np.testing.assert_allclose(packed[:, 4:7], state["velocity"], rtol=1e-3, atol=1e-3)
+    assert np.array_equal(box, [state["position"].min(axis=0), state["position"].max(axis=0)])

@@ -194,11 +194,17 @@ class Simulation(BaseSimulation):
 
     def packed_boids(self):
         """PackBoidsHalf: the boids' positions and velocities as half4 pairs, (N, 8) float16 on the device (the
-        view's copy of a large flock)."""
+        view's copy of a large flock), and their bounding box as (2, 3) float32 (min, max) on the host."""
+        rt = self.runtime
         if self.packed is None:
-            self.packed = self.runtime.empty((self.n, 8), np.float16)
-        self.program.kernel("PackBoidsHalf").over(self.n, 256, self.boid_data, np.int32(self.n), self.packed)
-        return self.packed
+            self.packed, self.bounds = rt.empty((self.n, 8), np.float16), rt.empty(6, np.int32)
+        self.bounds.set(np.array([2**31 - 1] * 3 + [-(2**31)] * 3, np.int32))
+        self.program.kernel("PackBoidsHalf").over(
+            self.n, 256, self.boid_data, np.int32(self.n), self.packed, self.bounds
+        )
+        bits = rt.read_back(self.bounds)
+        box = np.where(bits >= 0, bits, bits ^ np.int32(0x7FFFFFFF)).view(np.float32)  # ordered_int's inverse
+        return self.packed, box.reshape(2, 3)
 
     def boids(self) -> np.ndarray:
         """The raw Boid records (N,) of BOID_DTYPE, as the view uploads them."""

@@ -69,6 +69,7 @@ class View(BaseView):
         self.show_box, self.color_by_speed = True, False
         self.saved_weights: dict[str, float] = {}
         self.positions = None  # what pictures frame: read by png_camera and upload, before any frame()
+        self.bounds = None  # their bounding box when the device found it (a flock drawn as points)
 
     def make_camera(self):
         """The window's first view: the whole 32^3 box from outside (``book_camera``: the book's, inside the flock;
@@ -81,7 +82,7 @@ class View(BaseView):
     def png_camera(self):
         """Pictures and videos: the boids framed from outside (``frame``); the book's camera sits inside the flock."""
         camera = PictureCamera(yaw=PICTURE_YAW, pitch=PICTURE_PITCH)
-        self.positions = self.sim.boids()["position"][:, :3]  # the state now, uploaded or not
+        self.positions, self.bounds = self.sim.boids()["position"][:, :3], None  # the state now, uploaded or not
         self.frame(camera)
         return camera
 
@@ -95,9 +96,11 @@ class View(BaseView):
         camera.target = tuple(map(float, p.wall_center))
         camera.fit(corners)
         points = self.positions
-        if len(points) > FIT_POINTS:
-            # column by column: numpy reduces a strided column in one tight loop, an (N, 3) axis-0 reduction row by row
-            lo, hi = (np.array([f(points[:, a]) for a in range(3)]) for f in (np.min, np.max))
+        if self.bounds is not None or len(points) > FIT_POINTS:
+            if self.bounds is not None:  # the device's (PackBoidsHalf)
+                lo, hi = self.bounds
+            else:  # column by column: numpy reduces a strided column in one tight loop, (N, 3) along axis 0 row by row
+                lo, hi = (np.array([f(points[:, a]) for a in range(3)]) for f in (np.min, np.max))
             points = np.array([[(lo, hi)[k][a] for a, k in enumerate(c)] for c in itertools.product((0, 1), repeat=3)])
         centre = points.mean(axis=0)
         outward = points - centre
@@ -115,15 +118,15 @@ class View(BaseView):
     def upload(self) -> None:
         read = self.sim.runtime.read_back
         if self.sim.n > POINT_BOIDS:  # drawn a point each: half floats, half the bytes for GL
-            packed = read(self.sim.packed_boids())
-            self.positions = packed[:, :3]
+            device, self.bounds = self.sim.packed_boids()
+            packed = read(device)
             if self.points.write(packed):
                 self.point_vao = self.ctx.vertex_array(
                     self.point_program, [(self.points.buffer, "4f2 4f2", "in_offset", "in_velocity")]
                 )
         else:
             data = read(self.sim.boid_data)
-            self.positions = data["position"][:, :3]
+            self.positions, self.bounds = data["position"][:, :3], None
             if self.instances.write(data):
                 self.vao = self.ctx.vertex_array(
                     self.program,
