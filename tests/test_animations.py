@@ -113,24 +113,24 @@ def test_a_swing_turns_the_camera_and_comes_back(runtime, gl, tmp_path, monkeypa
 @pytest.mark.gl
 def test_a_loop_at_scale_runs_the_scene_at_those_sizes(runtime, gl, tmp_path, monkeypatch):
     """``animations --gpu`` records a flagship scene with its ``at_scale`` parameters instead of the preview's (here
-    the CPU ones, four frames of the 128^2 cloth): the simulation it records is that size. On a CPU device the
-    command itself refuses in one line (the loops are a million elements)."""
+    the CPU ones, four frames of 16,384 boids spread through their box): the simulation it records is that size. On
+    a CPU device the command itself refuses in one line (the loops are a million elements)."""
     import ugpcl.docs as docs
     from ugpcl.registry import get
 
+    scene = get("boids")
     made = []
-    original = get("cloth").simulation.__init__
+    original = scene.simulation.__init__
 
     def spy(self, *args, **kwargs):
         original(self, *args, **kwargs)
         made.append(self.params)
 
-    monkeypatch.setattr(get("cloth").simulation, "__init__", spy)
-    loop = get("cloth").at_scale.loop
-    anim = Animation(loop.shows, frames=4, every=2, start=0)
-    path = tmp_path / "cloth.webp"
-    assert docs.record_animation(runtime, "cloth", path, anim, get("cloth").at_scale.cpu, (160, 90)) == 4
-    assert [p.res for p in made] == [(128, 128)]
+    monkeypatch.setattr(scene.simulation, "__init__", spy)
+    anim = Animation(scene.at_scale.loop.shows, frames=4, every=2, start=0)
+    path = tmp_path / "boids.webp"
+    assert docs.record_animation(runtime, "boids", path, anim, scene.at_scale.cpu, (160, 90)) == 4
+    assert [(p.max_object_num, p.start) for p in made] == [(16384, "spread")]
     with Image.open(path) as image:
         assert image.size == (160, 90) and image.n_frames >= 3
-    assert docs.gpu_animations(["cloth"]) == 2
+    assert docs.gpu_animations(["boids"]) == 2

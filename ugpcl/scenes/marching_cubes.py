@@ -353,7 +353,11 @@ SCENES = [
             frames=47,
         ),
         preview_check=PreviewCheck(fills_frame="the floor runs to the horizon"),
-        at_scale=AtScale(gpu={"segment_num": 256}, cpu={"segment_num": 48}),
+        at_scale=AtScale(
+            gpu={"segment_num": 256},
+            cpu={"segment_num": 48},
+            loop=Animation("the three metaballs pulsing on a 256^3 grid, remeshed every step", every=2, frames=47),
+        ),
     ),
     Scene(
         "marching_cubes_kaiware",
