@@ -410,10 +410,24 @@ SCENES = [
         preview={"steps": 900, "particle_num": 4096, "ball_radius": 3.5, "start": "dam_break", "search": "grid"},
         # a smaller disc at the spacing of the book's 8192 particles in radius 5
         interactive={"particle_num": 4096, "ball_radius": 3.5, "search": "grid"},
-        # the disc and box scaled by sqrt(N / 8192): the number density of the book's 8192 (ugpcl.bench.sph_2d)
+        # the disc and box scaled by sqrt(N / 8192): the number density of the book's 8192 (ugpcl.bench.sph_2d); the
+        # drawn radius too on the CPU, and half that on the GPU (at the book's 0.05 a particle of the 181-unit box is a
+        # third of a pixel at 1280x720, and nothing is drawn)
         at_scale=AtScale(
-            gpu={"particle_num": 1 << 20, "search": "grid", "range": (181.02, 101.82), "ball_radius": 56.57},
-            cpu={"particle_num": 1 << 14, "search": "grid", "range": (22.63, 12.73), "ball_radius": 7.07},
+            gpu={
+                "particle_num": 1 << 20,
+                "search": "grid",
+                "range": (181.02, 101.82),
+                "ball_radius": 56.57,
+                "particle_radius": 0.3,
+            },
+            cpu={
+                "particle_num": 1 << 14,
+                "search": "grid",
+                "range": (22.63, 12.73),
+                "ball_radius": 7.07,
+                "particle_radius": 0.0707,
+            },
             loop=Animation(
                 "a million particles: the disc falls, splashes and spreads over the floor", every=6, quality=50
             ),
