@@ -8,7 +8,7 @@ import pytest
 from helpers import foreground, most_common_colour
 from PIL import Image
 
-from ugpcl.docs import ANIMATION_SIZE, ROOT, animated, page_scenes
+from ugpcl.docs import ANIMATION_SIZE, GPU_ANIMATION_SIZE, GPU_LOOPS, ROOT, animated, at_scale_loops, page_scenes
 from ugpcl.scene import Animation
 
 PAGES = page_scenes()
@@ -17,10 +17,10 @@ FILE_LIMIT, TOTAL_LIMIT = 400 * 1024, 6 * 1024 * 1024
 """Bytes per loop and for all of them: a page stays light to load, the repository small."""
 
 
-def frames_of(path) -> tuple[list[np.ndarray], int | None]:
+def frames_of(path, size=ANIMATION_SIZE) -> tuple[list[np.ndarray], int | None]:
     """Every frame of an animated WebP as (H, W, 3) uint8, and its loop count (0: forever)."""
     with Image.open(path) as image:
-        assert image.format == "WEBP" and image.size == ANIMATION_SIZE, f"{path.name}: {image.format} {image.size}"
+        assert image.format == "WEBP" and image.size == size, f"{path.name}: {image.format} {image.size}"
         frames = []
         for k in range(image.n_frames):
             image.seek(k)
@@ -61,6 +61,27 @@ def test_loop_is_animated_and_shows_the_scene_moving(name):
     frames = [f.astype(np.int16) for f in frames]
     moved = [(np.abs(a - b).max(axis=-1) > 40).mean() > 0.001 for a, b in zip(frames[:-1], frames[1:], strict=True)]
     assert np.mean(moved) > 0.5, f"{path.name}: only {sum(moved)} of {len(moved)} frame steps show motion"
+    whole = max((np.abs(frames[0] - f).max(axis=-1) > 40).mean() for f in frames)
+    assert whole > 0.005, f"{path.name}: no frame differs from the first in more than {whole:.2%} of the pixels"
+
+
+GPU_LOOP_LIMIT = 3 * 2**20
+"""Bytes per loop at scale (the issue's budget: a million dots compress poorly)."""
+
+
+@pytest.mark.parametrize("name", sorted(at_scale_loops()))
+def test_gpu_loop_is_animated_small_and_shows_the_scene_moving(name):
+    """docs/img/gpu/<scene>.webp (``make anim-gpu``, recorded on the lent GPU at the scene's AtScale sizes): under 3 MB,
+    at GPU_ANIMATION_SIZE, looping, no empty frame and visible motion (the chapter loops' rules)."""
+    path = GPU_LOOPS / f"{name}.webp"
+    assert path.exists(), f"{path.name} missing: make anim-gpu on a GPU machine"
+    assert path.stat().st_size <= GPU_LOOP_LIMIT, f"{path.name}: {path.stat().st_size // 1024} KB"
+    frames, loop = frames_of(path, GPU_ANIMATION_SIZE)
+    assert loop == 0 and len(frames) >= 0.75 * at_scale_loops()[name].frames, f"{path.name}: {len(frames)} frames"
+    for k, pixels in enumerate(frames):
+        share = foreground(pixels, most_common_colour(pixels)).mean()
+        assert share > 0.003, f"{path.name} frame {k}: only {share:.2%} of it differs from its background"
+    frames = [f.astype(np.int16) for f in frames]
     whole = max((np.abs(frames[0] - f).max(axis=-1) > 40).mean() for f in frames)
     assert whole > 0.005, f"{path.name}: no frame differs from the first in more than {whole:.2%} of the pixels"
 

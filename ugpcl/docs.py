@@ -251,9 +251,10 @@ def gpu_animation_block(name: str, path: Path) -> str:
     loop = scene.at_scale.loop
     image = Path(*_relative(GPU_LOOPS / f"{name}.webp", path.parent)).as_posix()
     sizes = ", ".join(f"{k}={v}" for k, v in scene.at_scale.gpu.items())
+    start = f" from step {loop.start}" if loop.start else ""
     return (
         f"![{name} at scale]({image})\n\nAt scale on the lent GPU ({sizes}; {loop.frames} frames, {loop.every} "
-        f"step{'s' * (loop.every > 1)} a frame; `make anim-gpu` on a GPU machine): {loop.shows}."
+        f"step{'s' * (loop.every > 1)} a frame{start}; `make anim-gpu` on a GPU machine): {loop.shows}."
     )
 
 

@@ -284,7 +284,7 @@ SCENES = [
             gpu={"max_object_num": 1 << 20, "variant": "grid", "start": "spread", "wall_size": (105.0, 105.0, 105.0)},
             cpu={"max_object_num": 1 << 14, "variant": "grid", "start": "spread", "wall_size": (26.0, 26.0, 26.0)},
             loop=Animation(
-                "a million boids, spread through the box at the start, turning into streams",
+                "a million boids spread through the box: local flocks form and turn, shaded by their headings",
                 every=6,
                 start=300,
                 quality=50,
