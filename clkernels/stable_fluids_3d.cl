@@ -28,8 +28,10 @@
 //                        +B(Velocity)
 //   ProjectStep1         velocity -> prev = (0, div, prev.z, prev.w) (own cell, in place) +B(Div); p = 0 everywhere,
 //                        so B(P) would change nothing; fixed: also divergence = div, pressure = 0 (first_sweep = 1:
-//                        ProjectStep2's first sweep from p = 0), and with write_prev = 0 (a step's first projection:
-//                        the copy of the velocity after it overwrites prev.xyz) prev left alone, by step 3 too
+//                        the pressure solve's first sweep from p = 0), and with write_prev = 0 (a step's first
+//                        projection: the velocity's copy after it overwrites prev.xyz) prev left alone, by step 3 too
+//   ProjectStep1Rows     fixed's step()'s ProjectStep1 (write_prev = 0, first_sweep = 1) in strips of 1 x 1 x
+//                        FIELD_ROWS cells along z, walls included: what the host runs (Simulation._fused_project)
 //   ProjectStep2         book: prev_in -> prev_out, fixed: pressure_in, divergence -> pressure_out: one Jacobi sweep
 //                        of the Poisson equation for p (gs_iterations) +B(P)
 //   ProjectStep2Rows     the same sweep (fixed, w % 4 == 0) in strips of 4 x 1 x ROWS cells along z: what the host
@@ -48,11 +50,14 @@
 //   fixed's step() (Simulation.fused_step, prev split) runs the book's step in 12 launches instead of 20
 //   (gs_iterations 2, source on), the fields bit for bit the book's kernels' (not in the book; each names the book's
 //   kernels it does):
-//     gs x DiffuseFields -> ProjectStep1 (first_sweep) -> (gs - 1) x ProjectStep2Rows -> ProjectStep3 ->
-//     SetBoundaryVelocity -> SwapAdvectVelocity -> the same projection -> SwapAdvectDensity
+//     gs x DiffuseFields (in strips: DiffuseFieldsRows) -> ProjectStep1Rows (first_sweep) -> (gs - 1) x
+//     ProjectStep2Rows -> ProjectStep3 -> SetBoundaryVelocity -> SwapAdvectVelocity -> the same projection
+//     -> SwapAdvectDensity
 //   DiffuseFields        one sweep of DiffuseVelocity and DiffuseDensity together (velocity = 0: density_only), the
 //                        first with the source on also AddSourceVelocity and AddSourceDensity; the centre terms from
 //                        the source (on) or the split prev +B(Velocity) +B(Density)
+//   DiffuseFieldsRows    the same sweep in strips of 1 x 1 x FIELD_ROWS cells along z: what the host runs
+//                        (Simulation.diffuse_kernel), walls by work-groups past the strips' +B(Velocity) +B(Density)
 //   SwapAdvectVelocity   SwapVelocity + AdvectVelocity: velocity_in -> velocity_out, prev_z = velocity_in.z
 //                        +B(Velocity)
 //   SwapAdvectDensity    SwapDensity + AdvectDensity / AdvectDensityFromExt: density_in -> density_out, back-traced
@@ -74,7 +79,8 @@
 //   RayMarchSmoke        velocity, density, maxima -> image: the smoke display of viewer/shaders/stable_fluids_3d.frag
 //                        ray-marched per pixel into premultiplied RGBA8: the picture, not the volume, goes to GL
 // Build defines: THREAD_X, THREAD_Y, THREAD_Z = work-group shape of the grid kernels (book: numthreads 8, 8, 4);
-//   ROWS = cells along z of a ProjectStep2Rows strip (fixed only);
+//   ROWS = cells along z of a ProjectStep2Rows strip, FIELD_ROWS of a DiffuseFieldsRows and ProjectStep1Rows strip
+//   (fixed only);
 //   BOOK_VARIANT = 1: the original's divergence -0.5*du/w + dv/h + dw/d (operator precedence) and a back-trace that
 //   is never clamped (its clamp() discards the result); 0: Stam's -0.5*(du/w + dv/h + dw/d), back-trace clamped
 //   to [0.5, n - 1.5], the pressure solve in the float divergence and pressure fields. Bugs of Solver3D.compute
@@ -270,15 +276,18 @@ INLINE int boundary_cell(int k, int4 n, int c[3]) {
 // neighbour reads need no bounds test.
 INLINE bool is_wall_group(int d) { return get_group_id(2) * get_local_size(2) >= d; }
 
-INLINE int wall_item(int4 n, int c[3]) {
+// grid_z: the grid's work-items along z (n.z; a strip kernel's number of strips): the wall groups come after them.
+INLINE int wall_item_past(int4 n, int c[3], int grid_z) {
     const int size = get_local_size(0) * get_local_size(1) * get_local_size(2);
-    const int grid_layers = (n.z + get_local_size(2) - 1) / get_local_size(2);  // the grid's layers of groups
+    const int grid_layers = (grid_z + get_local_size(2) - 1) / get_local_size(2);  // the grid's layers of groups
     const int group =
         ((get_group_id(2) - grid_layers) * get_num_groups(1) + get_group_id(1)) * get_num_groups(0) + get_group_id(0);
     if (group * size >= wall_count(n)) return 0;  // a group past the last wall cell: all its work-items leave
     const int item = (get_local_id(2) * get_local_size(1) + get_local_id(1)) * get_local_size(0) + get_local_id(0);
     return boundary_cell(group * size + item, n, c);
 }
+
+INLINE int wall_item(int4 n, int c[3]) { return wall_item_past(n, c, n.z); }
 
 // The copy rule on one float per cell, `stride` floats apart from `offset` (density: 1, 0; prev.x: 4, 0; prev.y: 4, 1),
 // one work-item per wall cell. Every work-item reads only an interior cell and writes only its own wall cell.
@@ -366,16 +375,22 @@ void DiffuseVelocity(const __global float4* velocity_in, const __global float4* 
 
 // Divergence into prev.y (walls: the inner cell's, SetBoundaryDiv), p = 0 into prev.x (everywhere: SetBoundaryP has
 // nothing to change).
-INLINE float divergence_at(const __global float4* velocity, int x, int y, int z, int4 n) {
-    const int w = n.x, h = n.y, d = n.z;  // (x, y, z) is interior: all 6 neighbours exist
-    const float du = velocity[cell(x + 1, y, z, n)].x - velocity[cell(x - 1, y, z, n)].x;
-    const float dv = velocity[cell(x, y + 1, z, n)].y - velocity[cell(x, y - 1, z, n)].y;
-    const float dw = velocity[cell(x, y, z + 1, n)].z - velocity[cell(x, y, z - 1, n)].z;
+// du, dv, dw: the differences of u, v, w between the cell's two neighbours along x, y, z.
+INLINE float divergence_of(float du, float dv, float dw, int4 n) {
+    const int w = n.x, h = n.y, d = n.z;
 #if BOOK_VARIANT
     return -0.5f * (du / w) + dv / h + dw / d;  // book: -0.5 * (uvd.x * du) + (uvd.y * dv) + (uvd.z * dw)
 #else
     return -0.5f * (du / w + dv / h + dw / d);  // Stam: -0.5 * h * (du + dv + dw)
 #endif
+}
+
+INLINE float divergence_at(const __global float4* velocity, int x, int y, int z, int4 n) {
+    // (x, y, z) is interior: all 6 neighbours exist
+    const float du = velocity[cell(x + 1, y, z, n)].x - velocity[cell(x - 1, y, z, n)].x;
+    const float dv = velocity[cell(x, y + 1, z, n)].y - velocity[cell(x, y - 1, z, n)].y;
+    const float dw = velocity[cell(x, y, z + 1, n)].z - velocity[cell(x, y, z - 1, n)].z;
+    return divergence_of(du, dv, dw, n);
 }
 
 // fixed: the divergence and p = 0 also go to their own float fields, which the sweeps read (12 bytes per cell, not
@@ -419,6 +434,48 @@ void ProjectStep1(const __global float4* velocity, __global float4* prev, __glob
     pressure[id] = first_sweep ? swept : 0.0f;
 #endif
 }
+
+// ProjectStep1 as fixed's step() runs it (write_prev = 0, first_sweep = 1) in strips of 1 x 1 x FIELD_ROWS cells
+// along z, walls included (Simulation._fused_project): the velocity's z of the cells below and above in registers,
+// in DiffuseFieldsRows' work-groups. Every cell, wall or not, is wall_copy(its wall axes, the value at its inner
+// cell), as in ProjectStep2Rows; the divergence at (clamp(x), clamp(y), clamp(z)) as divergence_at computes it:
+// ProjectStep1's values bit for bit. Global size (w, h, ceil(d / FIELD_ROWS)); no work-group shape is required.
+#if !BOOK_VARIANT
+#ifndef FIELD_ROWS
+#error "build with -D FIELD_ROWS=<cells per strip along z> (the host's FIELD_ROWS)"
+#endif
+__kernel void ProjectStep1Rows(const __global float4* velocity, __global float* divergence, __global float* pressure,
+                               int w, int h, int d) {
+    const int4 n = (int4)(w, h, d, 0);
+    const int x = get_global_id(0), y = get_global_id(1), z0 = FIELD_ROWS * get_global_id(2);
+    if (x >= w || y >= h || z0 >= d) return;  // padding of the rounded-up global size
+    const int z1 = min(z0 + FIELD_ROWS, d) - 1;  // the strip's cells z0 .. z1; its z walls copy planes 1 and d-2
+    const int r0 = clamp(z0, 1, d - 2), r1 = clamp(z1, 1, d - 2);  // the interior planes it computes
+    const int walls = (clamp(x, 1, w - 2) != x) + (clamp(y, 1, h - 2) != y);  // off the z walls
+    const int plane = w * h, column = clamp(y, 1, h - 2) * w + clamp(x, 1, w - 2), out = y * w + x;
+    float vz_below = velocity[(r0 - 1) * plane + column].z, vz_mid = velocity[r0 * plane + column].z;
+    for (int r = r0; r <= r1; r++) {
+        const int i = r * plane + column;
+        const float vz_above = velocity[i + plane].z;
+        const float du = velocity[i + 1].x - velocity[i - 1].x, dv = velocity[i + w].y - velocity[i - w].y;
+        const float div = divergence_of(du, dv, vz_above - vz_below, n), swept = (div + 0.0f) / 6.0f;
+        if (r >= z0 && r <= z1) {  // not a z wall
+            divergence[r * plane + out] = wall_copy(walls, div);
+            pressure[r * plane + out] = wall_copy(walls, swept);
+        }
+        if (r == 1 && z0 == 0) {  // the z = 0 wall
+            divergence[out] = wall_copy(walls + 1, div);
+            pressure[out] = wall_copy(walls + 1, swept);
+        }
+        if (r == d - 2 && z1 == d - 1) {  // the z = d-1 wall
+            divergence[(d - 1) * plane + out] = wall_copy(walls + 1, div);
+            pressure[(d - 1) * plane + out] = wall_copy(walls + 1, swept);
+        }
+        vz_below = vz_mid;
+        vz_mid = vz_above;
+    }
+}
+#endif
 
 // Poisson equation sum6(p) - 6p = -div, one Jacobi sweep: p = (div + sum6(p)) / 6; walls copy the inner cell's new p
 // (SetBoundaryP). book: p = prev.x, div = prev.y; fixed: the float fields.
@@ -728,25 +785,57 @@ INLINE float sweep_density(const Sweep* s, int i) {
     return s->add ? rho + density_source(s->source[i], s->density_coef, s->dt) : rho;
 }
 
-// diffuse_velocity_at with prev.xyz = the source's term (source on) or the split prev's x, y, z.
+// DiffuseVelocity's centre term prev.xyz: the source's term (source on) or the split prev's x, y, z.
+INLINE float3 sweep_velocity_centre(const Sweep* s, int i) {
+    return s->source_on ? velocity_source(s->source[i], s->velocity_coef, s->dt)
+                        : (float3)(s->prev_x[i], s->prev_y[i], s->prev_z[i]);
+}
+
+// DiffuseDensity's centre term prev.w: the source's term (source on) or the split prev's w.
+INLINE float sweep_density_centre(const Sweep* s, int i) {
+    return s->source_on ? density_source(s->source[i], s->density_coef, s->dt) : s->prev_w[i];
+}
+
+// diffuse_velocity_at's and diffuse_density_at's last line, from the centre term and the sum of the 6 neighbours
+// (one body for DiffuseFields and DiffuseFieldsRows: the same rounding).
+INLINE float4 diffused_velocity(float3 centre, float4 sum, float a) {
+    return (float4)((centre + a * sum.xyz) / (1.0f + 6.0f * a), 0.0f);
+}
+
+INLINE float diffused_density(float centre, float sum, float a) { return (centre + a * sum) / (1.0f + 6.0f * a); }
+
+// diffuse_velocity_at on the sweep's inputs.
 INLINE float4 sweep_velocity_at(const Sweep* s, int x, int y, int z, int4 n, float a, bool inside) {
     const float4 sum = sweep_velocity(s, x - 1, y, z, n, inside) + sweep_velocity(s, x + 1, y, z, n, inside) +
                        sweep_velocity(s, x, y - 1, z, n, inside) + sweep_velocity(s, x, y + 1, z, n, inside) +
                        sweep_velocity(s, x, y, z - 1, n, inside) + sweep_velocity(s, x, y, z + 1, n, inside);
-    const int i = cell(x, y, z, n);
-    const float3 centre = s->source_on ? velocity_source(s->source[i], s->velocity_coef, s->dt)
-                                       : (float3)(s->prev_x[i], s->prev_y[i], s->prev_z[i]);
-    return (float4)((centre + a * sum.xyz) / (1.0f + 6.0f * a), 0.0f);
+    return diffused_velocity(sweep_velocity_centre(s, cell(x, y, z, n)), sum, a);
 }
 
-// diffuse_density_at (an interior cell) with prev.w = the source's term (source on) or the split prev's w.
+// diffuse_density_at (an interior cell) on the sweep's inputs.
 INLINE float sweep_density_at(const Sweep* s, int x, int y, int z, int4 n, float a) {
     const float sum = sweep_density(s, cell(x - 1, y, z, n)) + sweep_density(s, cell(x + 1, y, z, n)) +
                       sweep_density(s, cell(x, y - 1, z, n)) + sweep_density(s, cell(x, y + 1, z, n)) +
                       sweep_density(s, cell(x, y, z - 1, n)) + sweep_density(s, cell(x, y, z + 1, n));
-    const int i = cell(x, y, z, n);
-    const float centre = s->source_on ? density_source(s->source[i], s->density_coef, s->dt) : s->prev_w[i];
-    return (centre + a * sum) / (1.0f + 6.0f * a);
+    return diffused_density(sweep_density_centre(s, cell(x, y, z, n)), sum, a);
+}
+
+// A sweep's value at wall cell c (a wall item): SetBoundaryDensity's and SetBoundaryVelocity's rules on this sweep's
+// values of the cells they read, as DiffuseDensity's and DiffuseVelocity's wall items.
+INLINE void sweep_wall(const Sweep* s, const int c[3], int4 n, float a_v, float a_d, int velocity,
+                       __global float4* velocity_out, __global float* density_out) {
+    int in[3], f[3];
+    const int walls = inner_cell(c, n, in), id = cell_of(c, n);
+    density_out[id] = wall_copy(walls, sweep_density_at(s, in[0], in[1], in[2], n, a_d));
+    if (!velocity) return;
+    const float4 inner = sweep_velocity_at(s, in[0], in[1], in[2], n, a_v, true);
+    float4 face[3] = {(float4)(0.0f), (float4)(0.0f), (float4)(0.0f)};
+    for (int axis = 0; axis < 3; axis++) {
+        if (c[axis] == in[axis]) continue;
+        face_cell(c, in, axis, f);
+        face[axis] = face_velocity(axis, sweep_velocity_at(s, f[0], f[1], f[2], n, a_v, false), inner);
+    }
+    velocity_out[id] = wall_velocity(c, in, walls, face);
 }
 
 // One sweep of DiffuseVelocity (with velocity = 1; 0 in density_only mode) and DiffuseDensity together (the two
@@ -765,25 +854,70 @@ void DiffuseFields(const __global float4* velocity_in, __global float4* velocity
                      velocity_coef, density_coef, dt, source_on, add_source};
     int c[3] = {get_global_id(0), get_global_id(1), get_global_id(2)};
     if (is_wall_group(d)) {  // SetBoundaryDensity and SetBoundaryVelocity, as DiffuseDensity's and DiffuseVelocity's
-        if (!wall_item(n, c)) return;
-        int in[3], f[3];
-        const int walls = inner_cell(c, n, in), id = cell_of(c, n);
-        density_out[id] = wall_copy(walls, sweep_density_at(&s, in[0], in[1], in[2], n, a_d));
-        if (!velocity) return;
-        const float4 inner = sweep_velocity_at(&s, in[0], in[1], in[2], n, a_v, true);
-        float4 face[3] = {(float4)(0.0f), (float4)(0.0f), (float4)(0.0f)};
-        for (int axis = 0; axis < 3; axis++) {
-            if (c[axis] == in[axis]) continue;
-            face_cell(c, in, axis, f);
-            face[axis] = face_velocity(axis, sweep_velocity_at(&s, f[0], f[1], f[2], n, a_v, false), inner);
-        }
-        velocity_out[id] = wall_velocity(c, in, walls, face);
+        if (wall_item(n, c)) sweep_wall(&s, c, n, a_v, a_d, velocity, velocity_out, density_out);
         return;
     }
     if (!is_interior(c[0], c[1], c[2], n)) return;  // padding, or a wall cell (a wall item sets it)
     const int id = cell_of(c, n);
     density_out[id] = sweep_density_at(&s, c[0], c[1], c[2], n, a_d);
     if (velocity) velocity_out[id] = sweep_velocity_at(&s, c[0], c[1], c[2], n, a_v, true);
+}
+
+// DiffuseFields in strips (what step() runs, Simulation.diffuse_kernel): one work-item sweeps the interior cells of a
+// column of FIELD_ROWS cells along z at (x, y), keeping the sweep's inputs (velocity, density; with add_source the
+// source's terms added) of the planes below and above in registers: of a cell's 6 neighbours 4 come from the cache
+// and one from memory, in work-groups whose rows of x read whole lines (the book's 8 x 8 x 4 groups read single
+// floats poorly). The walls are set by work-groups past the strips', as DiffuseFields' (sweep_wall). The same sums in
+// the same order: DiffuseFields' values bit for bit. Global size (w, h, ceil(d / FIELD_ROWS)) + the wall groups.
+#ifndef FIELD_ROWS
+#error "build with -D FIELD_ROWS=<cells per strip along z> (the host's FIELD_ROWS)"
+#endif
+__kernel void DiffuseFieldsRows(const __global float4* velocity_in, __global float4* velocity_out,
+                                const __global float* density_in, __global float* density_out,
+                                const __global float4* source, const __global float* prev_x,
+                                const __global float* prev_y, const __global float* prev_z,
+                                const __global float* prev_w, int w, int h, int d, float dt, float visc, float diff,
+                                float velocity_coef, float density_coef, int velocity, int source_on, int add_source) {
+    const int4 n = (int4)(w, h, d, 0);
+    const float a_v = dt * visc * (float)w * (float)h * (float)d;  // DiffuseVelocity's a
+    const float a_d = dt * diff * (float)w * (float)h * (float)d;  // DiffuseDensity's a
+    const Sweep s = {velocity_in, density_in, source, prev_x, prev_y, prev_z, prev_w,
+                     velocity_coef, density_coef, dt, source_on, add_source};
+    const int strips = (d + FIELD_ROWS - 1) / FIELD_ROWS;
+    int c[3] = {get_global_id(0), get_global_id(1), get_global_id(2)};
+    if (is_wall_group(strips)) {
+        if (wall_item_past(n, c, strips)) sweep_wall(&s, c, n, a_v, a_d, velocity, velocity_out, density_out);
+        return;
+    }
+    const int x = c[0], y = c[1];
+    const int r0 = max(FIELD_ROWS * c[2], 1), r1 = min(FIELD_ROWS * (c[2] + 1), d - 1) - 1;  // its interior planes
+    if (!is_interior(x, y, r0, n)) return;  // padding, or a wall column (wall items set it)
+    const int plane = w * h;
+    int i = cell(x, y, r0, n);
+    float4 v_below = (float4)(0.0f), v_mid = (float4)(0.0f);
+    if (velocity) {
+        v_below = sweep_velocity(&s, x, y, r0 - 1, n, true);
+        v_mid = sweep_velocity(&s, x, y, r0, n, true);
+    }
+    float d_below = sweep_density(&s, i - plane), d_mid = sweep_density(&s, i);
+    for (int r = r0; r <= r1; r++, i += plane) {
+        // sweep_density_at's and sweep_velocity_at's order: x-1, x+1, y-1, y+1, z-1, z+1
+        const float d_above = sweep_density(&s, i + plane);
+        const float d_sum = sweep_density(&s, i - 1) + sweep_density(&s, i + 1) + sweep_density(&s, i - w) +
+                            sweep_density(&s, i + w) + d_below + d_above;
+        density_out[i] = diffused_density(sweep_density_centre(&s, i), d_sum, a_d);
+        d_below = d_mid;
+        d_mid = d_above;
+        if (velocity) {
+            const float4 v_above = sweep_velocity(&s, x, y, r + 1, n, true);
+            const float4 v_sum = sweep_velocity(&s, x - 1, y, r, n, true) + sweep_velocity(&s, x + 1, y, r, n, true) +
+                                 sweep_velocity(&s, x, y - 1, r, n, true) + sweep_velocity(&s, x, y + 1, r, n, true) +
+                                 v_below + v_above;
+            velocity_out[i] = diffused_velocity(sweep_velocity_centre(&s, i), v_sum, a_v);
+            v_below = v_mid;
+            v_mid = v_above;
+        }
+    }
 }
 
 // SwapVelocity + AdvectVelocity: the book copies the velocity into prev.xyz and advects the copy; this advects the

@@ -1100,6 +1100,61 @@ def test_rows_sweep_is_project_step2_bit_for_bit(runtime, shape):
     np.testing.assert_array_equal(pressures["ProjectStep2Rows"], pressures["ProjectStep2"])
 
 
+@pytest.mark.parametrize("shape", [(12, 9, 7), (5, 4, 9), (3, 3, 3), (16, 8, 4), (9, 6, 6)])
+def test_rows_diffusion_is_diffuse_fields_bit_for_bit(runtime, shape):
+    """DiffuseFieldsRows (strips of FIELD_ROWS cells along z, what step() runs) gives DiffuseFields' fields, walls
+    included, bit for bit, over frames with the source on (the first sweep adds it), off (prev's leftovers) and in
+    density_only mode. Depths that are not multiples of the strip end in a part strip; (3, 3, 3) has one interior
+    cell."""
+    args = dict(emitter_center=(0.45, 0.4, 0.55), source_radius=0.35, velocity_coef=40.0, diff=0.5, visc=0.2)
+    states = {}
+    for kernel in ("DiffuseFields", "DiffuseFieldsRows"):
+        sim = make(runtime, shape, local_size=(4, 3, 2), **args)
+        sim.diffuse_kernel = kernel
+        states[kernel] = []
+        for frame in range(6):
+            sim.update(**{3: {"emitter": False}, 4: {"density_only": True}}.get(frame, {}))
+            sim.step(DT)
+            states[kernel].append(sim.state())
+    for frame, (expected, strips) in enumerate(zip(states["DiffuseFields"], states["DiffuseFieldsRows"], strict=True)):
+        for key, value in strips.items():
+            bits, expected_bits = (np.asarray(v).view(np.uint32) for v in (value, expected[key]))
+            np.testing.assert_array_equal(bits, expected_bits, err_msg=f"{key} after frame {frame}")
+    assert np.abs(states["DiffuseFields"][3]["velocity"]).max() > 0.001
+
+
+@pytest.mark.parametrize("shape", [(12, 9, 7), (5, 4, 9), (3, 3, 3), (16, 8, 4), (9, 6, 6), (4, 3, 5)])
+def test_rows_divergence_is_project_step1_bit_for_bit(runtime, shape, seed):
+    """ProjectStep1Rows (strips of FIELD_ROWS cells along z, walls included, what step()'s projections run) writes
+    the divergence and the first sweep's p of ProjectStep1 (first_sweep = 1), faces, edges and corners included, bit
+    for bit; part strips at the far z wall."""
+    w, h, d = shape
+    sim = make(runtime, shape, local_size=(4, 3, 2))
+    velocity, _, _ = random_fields(np.random.default_rng(seed), shape)
+    sim.set_fields(velocity=velocity)
+    fields = {}
+    for kernel in ("ProjectStep1", "ProjectStep1Rows"):
+        for field in (sim.divergence, sim.pressure.read):
+            field.set(np.full((d, h, w), np.nan, np.float32))  # every cell must be written
+        flags = (np.int32(0), np.int32(1)) if kernel == "ProjectStep1" else ()  # write_prev 0, first_sweep 1
+        prev = (sim.prev.read,) if kernel == "ProjectStep1" else ()
+        sim._grid(kernel, sim.velocity.read, *prev, sim.divergence, sim.pressure.read, *sim.dims, *flags)
+        fields[kernel] = [field.get().view(np.uint32) for field in (sim.divergence, sim.pressure.read)]
+    assert np.isfinite(fields["ProjectStep1"][0].view(np.float32)).all()
+    for rows, expected in zip(fields["ProjectStep1Rows"], fields["ProjectStep1"], strict=True):
+        np.testing.assert_array_equal(rows, expected)
+
+
+def test_diffuse_kernel_is_checked(runtime):
+    sim = make(runtime, (8, 5, 5))
+    assert sim.diffuse_kernel == "DiffuseFieldsRows"  # on every device: faster on PoCL too
+    with pytest.raises(ValueError, match="diffuse_kernel must be DiffuseFields or DiffuseFieldsRows"):
+        sim.diffuse_kernel = "DiffuseVelocity"
+    sim.diffuse_kernel = "DiffuseFields"
+    sim.diffuse_kernel = None
+    assert sim.diffuse_kernel == "DiffuseFieldsRows"
+
+
 def test_sweep_kernel_is_chosen_by_device_and_checked(runtime):
     sim = make(runtime, (8, 5, 5))
     assert sim.sweep_kernel == "ProjectStep2Rows"  # on every device (strips_on_cpu): faster on PoCL too
@@ -1114,7 +1169,7 @@ def test_sweep_kernel_is_chosen_by_device_and_checked(runtime):
 
 @pytest.mark.parametrize(("variant", "sweeps", "per_cell"), [("fixed", 2, 316), ("fixed", 3, 396), ("book", 2, 752)])
 def test_bench_step_bytes_count_the_launches_of_a_step(runtime, variant, sweeps, per_cell):
-    """The bench's least traffic of a step (source on): fixed, fused_step: 2 x 56 (DiffuseFields) + 2 x (24 + 12 +
+    """The bench's least traffic of a step (source on): fixed, fused_step: 2 x 56 (DiffuseFieldsRows) + 2 x (24 + 12 +
     36) (the projections) + 36 + 24 (the advections); book: 80 + 2 x 48 + 2 x (48 + 2 x 32 + 48) + 48 + 32 (the
     velocity step) + 56 + 2 x 24 + 36 + 36 (the density step); each more sweep 80 (fixed), 136 (book)."""
     from ugpcl.bench.stable_fluids_3d import step_bytes
@@ -1146,8 +1201,11 @@ def test_kernels_on_oclgrind(oclgrind, variant):
         sim.velocity_step(DT, True)
         sim.density_step(DT, True)
         sim.update(emitter=False)
-        sim.step()  # DiffuseFields from the split prev
+        sim.step()  # DiffuseFieldsRows from the split prev
         sim.update(emitter=True)
+        sim.diffuse_kernel = "DiffuseFields"  # the fused sweep in the book's work-groups
+        sim.step()
+        sim.diffuse_kernel = None
     assert sim.state()["density"].max() > 0
     volume, max_density, _ = sim.draw_volume("speed")  # the view's: a reduction in local memory, partial groups
     assert max_density == sim.state()["density"].max()
@@ -1174,7 +1232,7 @@ def test_kernels_on_oclgrind(oclgrind, variant):
     sim.set_boundary_p()  # on prev.x (stride 4)
     sim.set_boundary_div()
     sim.set_boundary_density()
-    if variant == "fixed":  # the GPUs' strip sweep: 2 strips across, a part strip along z
+    if variant == "fixed":  # the strip sweeps: ProjectStep2Rows 2 strips across, both a part strip along z
         strips = Simulation(oclgrind, Params(width=8, height=4, depth=6, local_size=(4, 4, 2), source_radius=0.4))
         strips.sweep_kernel = "ProjectStep2Rows"
         strips.step()

@@ -13,7 +13,9 @@ SWEEP_BATCH = 20
 KERNEL_BYTES_PER_CELL = {
     "fixed": {  # fused_step, prev split into float fields
         "DiffuseFields": 56,  # velocity 16, source 16, density 4 in; velocity 16, density 4 out
+        "DiffuseFieldsRows": 56,  # the same sweep in strips
         "ProjectStep1": 24,  # velocity 16 in; divergence 4, pressure 4 (the first sweep's p) out
+        "ProjectStep1Rows": 24,  # the same in strips
         "ProjectStep2": 12,  # p 4, div 4 in; p 4 out (the step's first sweep done by ProjectStep1)
         "ProjectStep2Rows": 12,
         "ProjectStep3": 36,  # velocity 16, p 4 in; velocity 16 out
@@ -64,21 +66,25 @@ def step_bytes(sim: Simulation) -> int:
 
 def bench(runtime, sizes=None) -> list[dict]:
     """Per grid n^3, variant, sweep kernel (ProjectStep2 in the book's work-groups, ProjectStep2Rows in its strips;
-    fixed only) and Jacobi sweeps per solve: ms per step (the whole Update: 2 diffusions, 2 projections, 2
-    advections, the queue finished after each step; Draw runs only once solver is read, which this loop does not),
-    cell updates/s (cells x steps/s), the step's least traffic (step_bytes) per second, and one Jacobi
-    sweep of the pressure solve (one launch, walls included) in us, timed over 20 sweeps back to back and one finish
-    as a solve runs them, as sweeps/s and cell updates/s, and as the least traffic a sweep needs
-    (stable_fluids_2d.JACOBI_BYTES_PER_CELL, what the fixed variant's sweep moves; the book's float4 prev: 32) per
-    second."""
+    fixed only), diffusion sweep (fixed: "strips", step()'s DiffuseFieldsRows, and "8x8x4 groups", DiffuseFields in
+    the book's work-groups, beside it at gs_iterations 2) and Jacobi sweeps per solve: ms per step (the whole Update:
+    2 diffusions, 2 projections, 2 advections, the queue finished after each step; Draw runs only once solver is
+    read, which this loop does not), cell updates/s (cells x steps/s), the step's least traffic (step_bytes) per
+    second, and one Jacobi sweep of the pressure solve (one launch, walls included) in us, timed over 20 sweeps back
+    to back and one finish as a solve runs them, as sweeps/s and cell updates/s, and as the least traffic a sweep
+    needs (stable_fluids_2d.JACOBI_BYTES_PER_CELL, what the fixed variant's sweep moves; the book's float4 prev: 32)
+    per second."""
     sizes = sizes or ([64, 128, 256] if runtime.is_gpu else [64, 128])
-    runs = [("fixed", kernel, sweeps) for kernel in ("ProjectStep2", "ProjectStep2Rows") for sweeps in (2, 20)]
-    runs.append(("book", "ProjectStep2", 2))
+    diffusions = {"strips": "DiffuseFieldsRows", "8x8x4 groups": "DiffuseFields", "-": None}  # -: the book's kernels
+    sweep_kernels = ("ProjectStep2", "ProjectStep2Rows")
+    runs = [("fixed", kernel, "strips", sweeps) for kernel in sweep_kernels for sweeps in (2, 20)]
+    runs += [("fixed", "ProjectStep2Rows", "8x8x4 groups", 2), ("book", "ProjectStep2", "-", 2)]
     rows = []
     for n in sizes:
-        for variant, kernel, sweeps in runs:
+        for variant, kernel, diffusion, sweeps in runs:
             sim = Simulation(runtime, Params(width=n, height=n, depth=n, gs_iterations=sweeps, variant=variant), seed=0)
             sim.sweep_kernel = kernel
+            sim.diffuse_kernel = diffusions[diffusion]
             seconds = seconds_per_step(sim, min_seconds=1.0, max_steps=50)
             sweep = seconds_per_call(
                 lambda sim=sim: sim.project_step2(1), runtime.queue, max_calls=10 * SWEEP_BATCH, batch=SWEEP_BATCH
@@ -89,6 +95,7 @@ def bench(runtime, sizes=None) -> list[dict]:
                     "grid": f"{n}^3",
                     "variant": variant,
                     "sweep kernel": kernel,
+                    "diffusion sweep": diffusion,
                     "gs_iterations": sweeps,
                     "ms/step": seconds * 1e3,
                     "cell updates/s": cells / seconds,

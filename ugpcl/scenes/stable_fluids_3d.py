@@ -21,7 +21,8 @@ runs the same step in fewer, fused launches on ``prev`` split into float fields 
     Project' = ProjectStep1+B(Div) (with the first sweep) -> (gs - 1) x ProjectStep2+B(P) -> ProjectStep3
                -> SetBoundaryVelocity
 
-with the fields bit for bit those of the kernels one by one (tested; 316 instead of 664 bytes a cell at gs 2).
+with the fields bit for bit those of the kernels one by one (tested; 316 instead of 664 bytes a cell at gs 2), the
+sweeps in strips along z (DiffuseFieldsRows, ProjectStep2Rows).
 
 Differences from the book: Jacobi sweeps between ping-pong buffers (the original's in-place Gauss-Seidel races); the
 walls are set by extra work-groups past the grid (``SETS_WALLS``), one work-item per wall cell computing the kernel's
@@ -60,6 +61,7 @@ KERNELS = (
     "AddSourceVelocity",
     "DiffuseVelocity",
     "ProjectStep1",
+    "ProjectStep1Rows",
     "ProjectStep2",
     "ProjectStep2Rows",
     "ProjectStep3",
@@ -72,6 +74,7 @@ KERNELS = (
     "AdvectDensity",
     "AdvectDensityFromExt",
     "DiffuseFields",
+    "DiffuseFieldsRows",
     "SwapAdvectVelocity",
     "SwapAdvectDensity",
     "Draw",
@@ -82,9 +85,10 @@ KERNELS = (
     "RayMarchSmoke",
 )
 """The kernels of stable_fluids_3d.cl in host call order (its header's list); the last three only for set_boundary_*.
-ProjectStep2Rows is ProjectStep2 in strips (sweep_kernel), built for the fixed variant only, as FUSED; DrawVolume only
-for the view (draw_volume), and RayMarchSmoke (ray_march, launched over the picture's pixels)."""
-FUSED = frozenset({"DiffuseFields", "SwapAdvectVelocity", "SwapAdvectDensity"})
+ProjectStep2Rows is ProjectStep2 in strips (sweep_kernel), DiffuseFieldsRows DiffuseFields in strips
+(diffuse_kernel) and ProjectStep1Rows fused_step's ProjectStep1 in strips, built for the fixed variant only, as FUSED;
+DrawVolume only for the view (draw_volume), and RayMarchSmoke (ray_march, launched over the picture's pixels)."""
+FUSED = frozenset({"DiffuseFields", "DiffuseFieldsRows", "ProjectStep1Rows", "SwapAdvectVelocity", "SwapAdvectDensity"})
 """The kernels of the fixed variant's step() that each do several of the book's (fused_step); fixed builds only."""
 ROWS_PER_ITEM = 2
 """Cells along z of the 4-cell strip one work-item of ProjectStep2Rows sweeps (its ROWS define)."""
@@ -92,6 +96,12 @@ ROWS_LOCAL = (32, 4, 1)
 """ProjectStep2Rows' work-group shape, in strips. On the H100 (2026-11-25, an exploration run) a 256^3 sweep takes
 75.1 us with it and 2 cells along z (74.9-77.6 us for 2 or 4 cells in nine shapes; 92 % of the copy bandwidth),
 against 127.1 us for ProjectStep2 in the book's 8 x 8 x 4 groups; 128^3: 16.1 against 19.9 us."""
+FIELD_ROWS = 4
+"""Cells along z of the strip one work-item of DiffuseFieldsRows and ProjectStep1Rows sweeps (their FIELD_ROWS define):
+the planes below and above the strip are read twice, by it and by its neighbour."""
+FIELD_ROWS_LOCAL = (64, 4, 1)
+"""DiffuseFieldsRows' and ProjectStep1Rows' work-group shape, in strips of one cell across: a GPU warp reads 32 cells
+of a row, 512 bytes of velocity, where the book's 8 x 8 x 4 groups read rows of 8."""
 SETS_WALLS = frozenset(
     {"DiffuseVelocity", "ProjectStep1", "ProjectStep2", "AdvectVelocity", "DiffuseDensity", "AdvectDensity"}
     | {"AdvectDensityFromExt"}
@@ -183,12 +193,8 @@ class Simulation(StripSweeps, BaseSimulation):
         self.local_size = fitted_shape(p.local_size, rt.device)  # the kernels' reqd_work_group_size
         # SetBoundary*: one work-item per wall cell; the kernels that set the walls themselves get layers of
         # work-groups past the grid's along z, as many as the wall cells fill (stable_fluids_3d.cl, wall_item)
-        walls = p.width * p.height * p.depth - (p.width - 2) * (p.height - 2) * (p.depth - 2)
-        self._boundary_size = walls
-        wall_groups = -(-walls // math.prod(self.local_size))  # ceil
-        per_layer = math.prod(-(-n // t) for n, t in zip((p.width, p.height), self.local_size[:2], strict=True))
-        layers = -(-wall_groups // per_layer)
-        self._walls_shape = (p.width, p.height, p.depth + layers * self.local_size[2])
+        self._boundary_size = p.width * p.height * p.depth - (p.width - 2) * (p.height - 2) * (p.depth - 2)
+        self._walls_shape = self._with_wall_groups(p.depth, self.local_size)
         self.velocity = PingPong.zeros(rt, (*self.shape, 4), np.float32)  # (u, v, w, 0)
         self.density = PingPong.zeros(rt, self.shape, np.float32)
         self.prev = PingPong.zeros(rt, (*self.shape, 4), np.float32)
@@ -212,6 +218,15 @@ class Simulation(StripSweeps, BaseSimulation):
         self.solver_stale = False  # solver lags velocity and density: Draw runs once it is read (_step)
         self._built_for = self._configured_for = None  # the program follows local_size and variant (_configure)
 
+    def _with_wall_groups(self, grid_z: int, local: tuple[int, int, int]) -> tuple[int, int, int]:
+        """The work-items of a kernel that sets walls itself: the grid's (w x h x ``grid_z``, in work-groups of
+        ``local``), then layers of work-groups along z, as many as the wall cells fill."""
+        w, h = self.params.width, self.params.height
+        wall_groups = -(-self._boundary_size // math.prod(local))  # ceil
+        per_layer = math.prod(-(-n // t) for n, t in zip((w, h), local[:2], strict=True))
+        layers = -(-wall_groups // per_layer)
+        return (w, h, -(-grid_z // local[2]) * local[2] + layers * local[2])
+
     @property
     def program(self):
         """The program for the work-group shape and the current variant (live: rebuilt from the runtime's cache)."""
@@ -224,23 +239,47 @@ class Simulation(StripSweeps, BaseSimulation):
         tx, ty, tz = self.local_size
         book = self.params.variant == "book"
         if self._built_for != book:
+            strips = {"ROWS": ROWS_PER_ITEM, "FIELD_ROWS": FIELD_ROWS}
             self._program = self.runtime.program(
-                STEM, THREAD_X=tx, THREAD_Y=ty, THREAD_Z=tz, BOOK_VARIANT=book, ROWS=ROWS_PER_ITEM
+                STEM, THREAD_X=tx, THREAD_Y=ty, THREAD_Z=tz, BOOK_VARIANT=book, **strips
             )
             grid = tuple(int(n) for n in self.dims)
             self._launches = {  # name: (kernel, work-items, work-group) of Kernel.over
                 name: (self._program.kernel(name), self._walls_shape if name in SETS_WALLS else grid, self.local_size)
                 for name in KERNELS
-                if name != "ProjectStep2Rows" and not name.startswith("SetBoundary")  # their own shapes
+                if not name.endswith("Rows") and not name.startswith("SetBoundary")  # their own shapes
                 if not (book and name in FUSED)
             }
             w, h, d = grid
+            if not book:  # strips of 1 x 1 x FIELD_ROWS cells, then the wall groups
+                kernel = self._program.kernel("DiffuseFieldsRows")
+                local = fitted_shape(FIELD_ROWS_LOCAL, self.runtime.device, kernel.work_group_size())
+                shape = self._with_wall_groups(-(-d // FIELD_ROWS), local)
+                self._launches["DiffuseFieldsRows"] = (kernel, shape, local)
+                kernel = self._program.kernel("ProjectStep1Rows")  # walls included
+                local = fitted_shape(FIELD_ROWS_LOCAL, self.runtime.device, kernel.work_group_size())
+                self._launches["ProjectStep1Rows"] = (kernel, (w, h, -(-d // FIELD_ROWS)), local)
             if not book and w % 4 == 0:  # strips of 4 x 1 x ROWS_PER_ITEM cells, walls included
                 kernel = self._program.kernel("ProjectStep2Rows")
                 local = fitted_shape(ROWS_LOCAL, self.runtime.device, kernel.work_group_size())
                 self._launches["ProjectStep2Rows"] = (kernel, (w // 4, h, -(-d // ROWS_PER_ITEM)), local)
             self._built_for = book
         self._configured_for = self.params
+
+    _diffuse_kernel = "DiffuseFieldsRows"
+
+    @property
+    def diffuse_kernel(self) -> str:
+        """The kernel of fused_step's diffusion sweeps (variant fixed): DiffuseFieldsRows on every device, faster on
+        PoCL too (2 cores, 2026-11-29, a whole step: 48^3 6.2 against 6.7 ms, 64^3 15.3 against 17.7 ms), or
+        DiffuseFields; the same fields bit for bit. Settable (tests, the bench); None restores DiffuseFieldsRows."""
+        return self._diffuse_kernel
+
+    @diffuse_kernel.setter
+    def diffuse_kernel(self, name: str | None) -> None:
+        if name not in (None, "DiffuseFields", "DiffuseFieldsRows"):
+            raise ValueError(f"diffuse_kernel must be DiffuseFields or DiffuseFieldsRows, got {name!r}")
+        self._diffuse_kernel = name or "DiffuseFieldsRows"
 
     def _grid(self, name: str, *args) -> None:
         """Launch a grid kernel over every cell (a SETS_WALLS kernel also over its wall work-groups, ProjectStep2Rows
@@ -530,8 +569,9 @@ class Simulation(StripSweeps, BaseSimulation):
         self._split_prev()
         velocity = not p.density_only
         coefs = (np.float32(p.visc), np.float32(p.diff), np.float32(p.velocity_coef), np.float32(p.density_coef))
+        diffuse = self.diffuse_kernel
         for sweep in range(p.gs_iterations):  # the first with the source on also adds it (AddSource*)
-            self._grid("DiffuseFields", self.velocity.read, self.velocity.write, self.density.read,
+            self._grid(diffuse, self.velocity.read, self.velocity.write, self.density.read,
                        self.density.write, self.source, *self._split_fields(), *dims, dt32, *coefs,
                        np.int32(velocity), np.int32(source), np.int32(source and sweep == 0))  # fmt: skip
             if velocity:
@@ -549,10 +589,9 @@ class Simulation(StripSweeps, BaseSimulation):
 
     def _fused_project(self) -> None:
         """project() as fused_step runs it: ProjectStep1 also does the first sweep, and prev is left alone (its x and
-        y are the pressure and divergence fields themselves)."""
+        y are the pressure and divergence fields themselves): ProjectStep1Rows, its strips."""
         dims = self.dims
-        self._grid("ProjectStep1", self.velocity.read, self.prev.read, self.divergence, self.pressure.read, *dims,
-                   np.int32(0), np.int32(1))  # fmt: skip
+        self._grid("ProjectStep1Rows", self.velocity.read, self.divergence, self.pressure.read, *dims)
         kernel = self.sweep_kernel
         for _ in range(self.params.gs_iterations - 1):
             self._grid(kernel, self.pressure.read, self.pressure.write, self.divergence, *dims)
