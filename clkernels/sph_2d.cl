@@ -11,6 +11,8 @@
 //      ForceCS_grid    the same sums over the 3x3 grid cells around particle i (search=grid)
 //   4. IntegrateCS     particles_in, force -> particles_out: mouse push, walls, gravity, v += dt a, x += dt v
 //   then the host swaps particles_in and particles_out.
+//   For the view only (the water colour, which needs no velocity):
+//   5. PackPositions   particles_in -> positions: 8 bytes a particle for GL instead of the record's 16
 // Grid variant (ugpcl, search=grid; docs/chapters/05-sph-2d.md): the host sorts the particles by cell with
 // ugpcl.grid.UniformGrid (grid.h; cell size >= h) before step 1 and copies them in that order into sorted_particles
 // (GridCopyItemsInCellOrder), and the *_grid kernels replace DensityCS and ForceCS: the same per-pair maths over the
@@ -237,3 +239,10 @@ __kernel void IntegrateCS(const __global FluidParticle* particles_in, const __gl
 }
 
 // }}}
+
+// The view's copy of the positions alone (viewer/views/sph_2d.py, colour mode water): GL takes host data at about
+// 4 GB/s on the lent H200, so a million particles' velocities (8 MB a frame) are left on the device when not shown.
+__kernel void PackPositions(const __global FluidParticle* particles_in, __global float2* positions, int n) {
+    const int i = get_global_id(0);
+    if (i < n) positions[i] = particles_in[i].position;
+}

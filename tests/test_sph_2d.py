@@ -634,3 +634,31 @@ def test_kernels_on_oclgrind(oclgrind, search, seed):
     sim.push(8.0, 4.5)
     sim.run_fluid_solver(SUB_DT)  # DensityCS/PressureCS/ForceCS/IntegrateCS (or the grid build and grid kernels)
     assert np.isfinite(sim.state()["position"]).all()
+    assert np.array_equal(sim.packed_positions().get(), sim.state()["position"])  # PackPositions, the view's copy
+
+
+@pytest.mark.gl
+def test_view_uploads_only_what_the_colour_mode_shows(runtime, gl):
+    """The water colour needs positions only (PackPositions: 8 bytes a particle, the positions exactly); the speed
+    colour whole records (16); density and pressure add their field (4). The mean density for the status line is
+    read on top, through the device link and not into GL."""
+    from ugpcl.viewer.views import create_view
+
+    sim = get("sph_2d").create(runtime, particle_num=300)
+    sim.step()
+    view = create_view(get("sph_2d"), gl, sim)
+    n = sim.n
+    for mode, particle_bytes, field_bytes in (
+        ("water", 8, 0),
+        ("speed", 16, 0),
+        ("density", 16, 4),
+        ("pressure", 16, 4),
+    ):
+        view.color_mode = mode
+        before = runtime.read_back_bytes
+        view.upload()
+        mean_read = 0 if mode == "density" else 4  # the density for the mean, when the mode did not read it
+        assert runtime.read_back_bytes - before == n * (particle_bytes + field_bytes + mean_read), mode
+        if mode == "water":
+            uploaded = np.frombuffer(view.particles.buffer.read(n * 8), np.float32).reshape(n, 2)
+            assert np.array_equal(uploaded, sim.state()["position"])

@@ -173,6 +173,7 @@ class Simulation(BaseSimulation):
         self._grid: UniformGrid | None = None
         self._grid_is_current = False
         self.sorted_particles = None  # particles_in in the grid's cell order (search=grid), made with the grid
+        self.positions = None  # PackPositions' output, made on first use (a view's)
         self.mouse_pos, self.mouse_down = (0.0, 0.0), False  # book: screenToWorldPointPos starts at the origin
 
     # {{{ neighbour grid (search=grid)
@@ -321,6 +322,13 @@ class Simulation(BaseSimulation):
 
     # {{{ state
 
+    def packed_positions(self):
+        """PackPositions: the particles' positions alone, (N, 2) float32 on the device (the view's water colour)."""
+        if self.positions is None:
+            self.positions = self.runtime.empty((self.n, 2), np.float32)
+        self.program.kernel("PackPositions").over(self.n, 256, self.particles.read, self.positions, np.int32(self.n))
+        return self.positions
+
     def particles_array(self) -> np.ndarray:
         """The current particles (N,) of PARTICLE_DTYPE (particles_in: the buffer written last), as the view draws."""
         return self.particles.read.get()
@@ -411,15 +419,15 @@ SCENES = [
         # a smaller disc at the spacing of the book's 8192 particles in radius 5
         interactive={"particle_num": 4096, "ball_radius": 3.5, "search": "grid"},
         # the disc and box scaled by sqrt(N / 8192): the number density of the book's 8192 (ugpcl.bench.sph_2d); the
-        # drawn radius too on the CPU, and half that on the GPU (at the book's 0.05 a particle of the 181-unit box is a
-        # third of a pixel at 1280x720, and nothing is drawn)
+        # drawn radius too on the CPU, and 0.2 on the GPU (at the book's 0.05 a particle of the 181-unit box is a third
+        # of a pixel at 1280x720 and nothing is drawn; 0.3 cost the H200's graphics units 7 ms a frame)
         at_scale=AtScale(
             gpu={
                 "particle_num": 1 << 20,
                 "search": "grid",
                 "range": (181.02, 101.82),
                 "ball_radius": 56.57,
-                "particle_radius": 0.3,
+                "particle_radius": 0.2,
             },
             cpu={
                 "particle_num": 1 << 14,

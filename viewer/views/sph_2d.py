@@ -42,6 +42,7 @@ class View(BaseView):
         self.program = load_program(ctx, "sph_2d")
         self.particles = GrowableBuffer(ctx)  # FluidParticle records: the book's _ParticlesBuffer
         self.values = GrowableBuffer(ctx)  # the density or pressure per particle, when a colour mode shows it
+        self.layout = None  # the particle buffer's vertex format: positions only (water) or whole records
         self.box = Lines(ctx, color=(0.45, 0.45, 0.45, 1.0))
         self.show_box, self.color_mode = True, "water"
         self.color_scale = 1.0
@@ -76,22 +77,22 @@ class View(BaseView):
         return FlatCamera(rect=self.picture_rect or self._rect())
 
     def upload(self) -> None:
-        # straight from page-locked copies to GL, only what the colour mode shows (a million particles: 16 MB a
-        # frame, 4 more for a density or pressure; GL takes them at about 4 GB/s on the lent H200)
+        # straight from page-locked copies to GL, only what the colour mode shows (a million particles: 8 MB a
+        # frame of positions for the water, 16 MB of records for the speed, 4 more for a density or pressure; GL
+        # takes them at about 4 GB/s on the lent H200)
         sim, read = self.sim, self.sim.runtime.read_back
-        data = read(sim.particles.read)
+        water = self.color_mode == "water"
+        data = read(sim.packed_positions() if water else sim.particles.read)
         field = {"density": sim.density, "pressure": sim.pressure}.get(self.color_mode)
         values = read(field) if field is not None else None
         grown = self.particles.write(data)
         if values is not None or self.values.buffer is None or self.values.buffer.size < 4 * sim.n:
             grown |= self.values.write(values if values is not None else np.zeros(sim.n, np.float32))
-        if grown:
+        layout = ("2f", "in_position") if water else ("2f 2f", "in_position", "in_velocity")
+        if grown or layout != self.layout:
+            self.layout = layout
             self.vao = self.ctx.vertex_array(
-                self.program,
-                [
-                    (self.particles.buffer, "2f 2f", "in_position", "in_velocity"),
-                    (self.values.buffer, "1f", "in_value"),
-                ],
+                self.program, [(self.particles.buffer, *layout), (self.values.buffer, "1f", "in_value")]
             )
         density = values if self.color_mode == "density" else read(sim.density)  # the bus is fast; GL is not
         self.mean_density = float(density.mean())
