@@ -462,6 +462,8 @@ def test_blocked_depth_map_is_the_serial_kernels_bit_for_bit(runtime, preset, de
     figure = {"tex": 512, "edge_texels": 2, "aim_radius": 0.35}  # the figure scene's: its layout needs 512 texels
     sizes = figure if preset == "figure" else {"tex": 32}
     sim = make(runtime, preset=scene, depth_res=depth_res, aim="orbit", **sizes)
+    assert sim.blocked_depth == runtime.is_gpu, "GPUs cast in blocks, CPU devices serially"
+    sim.blocked_depth = True  # the blocks on every device, against the serial kernel
     if preset == "soup":
         sim.set_drawables([triangle_soup(200, seed=1)])
     for _ in range(3):
