@@ -508,3 +508,20 @@ def test_kernels_on_oclgrind(oclgrind, seed):
     np.testing.assert_allclose(packed[:, :3], state["position"], rtol=1e-3, atol=1e-3)
     np.testing.assert_allclose(packed[:, 4:7], state["velocity"], rtol=1e-3, atol=1e-3)
     assert np.array_equal(box, [state["position"].min(axis=0), state["position"].max(axis=0)])
+
+
+@pytest.mark.parametrize("n", [300, 512])
+def test_packed_boids_are_the_boids_in_half_floats_with_their_bounding_box(runtime, seed, n):
+    """PackBoidsHalf (the view's copy of a flock drawn as points): position then velocity as half4 per boid, and the
+    positions' bounding box reduced on the device exactly (a partial last work-group, negative coordinates, the
+    smallest and largest in various boids)."""
+    sim = Simulation(runtime, Params(max_object_num=n), seed)
+    rng = np.random.default_rng(seed)
+    position = rng.uniform(-40.0, 25.0, (n, 3)).astype(np.float32)
+    position[0], position[-2] = -50.0, 30.0  # the extremes at even places of a work-group, where a tree keeps them
+    sim.set_boids(position, rng.normal(size=(n, 3)))
+    packed, box = sim.packed_boids()
+    packed, state = packed.get().astype(np.float32), sim.state()
+    np.testing.assert_allclose(packed[:, :3], state["position"], rtol=1e-3, atol=2e-2)
+    np.testing.assert_allclose(packed[:, 4:7], state["velocity"], rtol=1e-3, atol=1e-3)
+    assert np.array_equal(box, [state["position"].min(axis=0), state["position"].max(axis=0)])
