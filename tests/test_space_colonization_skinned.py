@@ -702,6 +702,22 @@ def test_skinned_view_shows_tubes_above_the_floor(runtime, gl):
 # }}}
 
 
+def test_tiles_grow_the_books_figure_bit_for_bit(runtime):
+    """The skinned figure grown with the _tiled Search, Attract and Remove (what a GPU runs) and with the book's
+    loops: every array of the state the same bit for bit, over hundreds of node slots (several tiles of 128, slot 0
+    among them) and thousands of attractions."""
+    states = []
+    for tiles in (False, True):
+        sim = get("space_colonization_skinned").create(runtime, 0)
+        sim.tiles = tiles
+        for _ in range(6):
+            sim.step()
+        states.append(sim.state())
+    assert int(states[0]["node_active"].sum()) > 3 * 128, "too few nodes for several tiles"
+    for key in states[0]:
+        np.testing.assert_array_equal(states[0][key], states[1][key], err_msg=key)
+
+
 @pytest.mark.oclgrind
 @pytest.mark.parametrize("tiles", [False, True], ids=["book_loops", "tiled"])
 def test_skinned_kernels_on_oclgrind(oclgrind, tiles):
