@@ -21,6 +21,7 @@
 // sums up to float rounding.
 #include "boid.h"  // Boid {float4 velocity, position}: 32 B; numpy mirror BOID_DTYPE
 #include "grid.h"  // grid_neighbours: the one neighbour-cell loop of the sorted-key uniform grid
+#include "ordered.h"  // ordered_int: PackBoidsHalf's bounding box by integer atomics
 
 #ifndef SIMULATION_BLOCK_SIZE
 #error "build with -D SIMULATION_BLOCK_SIZE=<work-group size>"
@@ -304,10 +305,6 @@ __kernel void IntegrateCS(__global Boid* boid_data, const __global float4* boid_
 // bounds = (min x, y, z, max x, y, z) of the positions as ordered ints (the host fills it with INT_MAX x 3, INT_MIN
 // x 3 first): numpy took tens of ms to scan a million half floats for a picture's framing.
 #define PACK_GROUP 256
-inline int ordered_int(float v) {  // an int whose order is the floats' (negative floats reversed); its own inverse
-    const int i = as_int(v);
-    return i >= 0 ? i : i ^ 0x7fffffff;
-}
 
 __kernel __attribute__((reqd_work_group_size(PACK_GROUP, 1, 1))) void PackBoidsHalf(
     const __global Boid* boid_data, int n, __global half* packed, volatile __global int* bounds) {

@@ -107,6 +107,7 @@
 
 // Helpers are always inlined: PoCL keeps a large helper that is called more than once as a call per work-item.
 #define INLINE inline __attribute__((always_inline))
+#include "ordered.h"  // ordered_int: DrawVolume's maxima by integer atomics
 
 // One work-item per cell; padding items of the rounded-up global size leave at once (no barrier in its kernels).
 #define CELL_OR_RETURN(w, h, d)                                                                    \
@@ -955,11 +956,6 @@ void Draw(const __global float4* velocity, const __global float* density, __glob
 // floats (vstore_half, rounded to nearest; clamped to half's range, where a float beyond it would turn inf); maxima =
 // the largest density and speed of the grid (Draw's values: solver.w and |solver.xyz|), as ordered_int(), reduced
 // in the work-group and then by one atomic_max per group (the host fills maxima with INT_MIN before the launch).
-INLINE int ordered_int(float v) {  // an int whose order is the floats' (negative floats reversed); its own inverse
-    const int i = as_int(v);
-    return i >= 0 ? i : i ^ 0x7fffffff;
-}
-
 #define GROUP_SIZE (THREAD_X * THREAD_Y * THREAD_Z)
 #define HALF_MAX 65504.0f
 
@@ -1091,7 +1087,7 @@ __kernel void RayMarchSmoke(const __global float4* velocity, const __global floa
         float value_scale = 1.0f;  // speed: 1 / the max speed, so that the fastest cell reads 1
         if (field == 1) {
             const int bits = maxima[1];
-            const float top = as_float(bits >= 0 ? bits : bits ^ 0x7fffffff);  // ordered_int's inverse
+            const float top = ordered_float(bits);
             if (top > 0.0f) value_scale = 1.0f / top;
         }
         const float k = absorption / box_length;  // extinction per unit value per world unit

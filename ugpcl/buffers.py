@@ -16,6 +16,12 @@ from .runtime import Runtime
 COUNT, REFUSED = 0, 1  # slots of a pool's counter buffer (pool.h: POOL_COUNT, POOL_REFUSED)
 
 
+def ordered_floats(bits: np.ndarray) -> np.ndarray:
+    """The floats behind ordered ints (clkernels/include/ordered.h: ``ordered_int``, its own inverse), float32."""
+    bits = np.asarray(bits, np.int32)
+    return np.where(bits >= 0, bits, bits ^ np.int32(0x7FFFFFFF)).view(np.float32)
+
+
 class Pool:
     """Append/Consume buffer of ``capacity`` items of ``dtype`` with an atomic counter.
 

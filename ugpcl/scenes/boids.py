@@ -22,6 +22,7 @@ import numpy as np
 import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
+from ..buffers import ordered_floats
 from ..grid import UniformGrid
 from ..scene import Animation, AtScale, PreviewCheck, Scene, param
 from ..scene import Params as BaseParams
@@ -202,9 +203,7 @@ class Simulation(BaseSimulation):
         self.program.kernel("PackBoidsHalf").over(
             self.n, 256, self.boid_data, np.int32(self.n), self.packed, self.bounds
         )
-        bits = rt.read_back(self.bounds)
-        box = np.where(bits >= 0, bits, bits ^ np.int32(0x7FFFFFFF)).view(np.float32)  # ordered_int's inverse
-        return self.packed, box.reshape(2, 3)
+        return self.packed, ordered_floats(rt.read_back(self.bounds)).reshape(2, 3)
 
     def boids(self) -> np.ndarray:
         """The raw Boid records (N,) of BOID_DTYPE, as the view uploads them."""

@@ -45,7 +45,7 @@ import numpy as np
 import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
-from ..buffers import PingPong, put
+from ..buffers import PingPong, ordered_floats, put
 from ..resources import Allocation
 from ..runtime import fitted_shape
 from ..scene import Animation, AtScale, PreviewCheck, Scene, param
@@ -502,9 +502,7 @@ class Simulation(StripSweeps, BaseSimulation):
 
     def _maxima(self) -> tuple[float, float]:
         """The largest density and speed DrawVolume found (8 bytes read back)."""
-        maxima = self.runtime.read_back(self.maxima)
-        bits = np.where(maxima >= 0, maxima, maxima ^ np.int32(0x7FFFFFFF))  # the kernel's ordered_int, its inverse
-        max_density, max_speed = bits.view(np.float32)
+        max_density, max_speed = ordered_floats(self.runtime.read_back(self.maxima))
         return float(max_density), float(max_speed)
 
     def ray_march(
