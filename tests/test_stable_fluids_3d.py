@@ -969,7 +969,7 @@ def test_view_draws_smoke_where_the_density_is(runtime, gl):
 
 
 @pytest.mark.gl
-@pytest.mark.parametrize("field", ["density", "speed"])
+@pytest.mark.parametrize("field", ["density", "speed", "uniform speed"])
 def test_device_smoke_is_the_shaders_smoke(runtime, gl, field):
     """The smoke display ray-marched by RayMarchSmoke into a picture (Simulation.ray_march, what the view draws) is
     the fragment shader's ray march of the uploaded volume (gl_smoke) within rounding: the picture's RGBA8 before the
@@ -977,7 +977,8 @@ def test_device_smoke_is_the_shaders_smoke(runtime, gl, field):
     inside it, in a non-cubic grid. Two blobs, one above the other, so that the shadow rays darken the lower one: the
     lower thin (its absorption shows throughout), the upper dense enough for the rays' early exit; a smooth velocity
     for the speed display. Mutations it caught: absorption x 1.1, no shadow, texel centres off by 0.1 cell, the heat
-    ramp at 0.9 x the speed, the early exit at 5 % transmittance instead of 1 %."""
+    ramp at 0.9 x the speed, the early exit at 5 % transmittance instead of 1 %. "uniform speed": every cell at the
+    largest speed, so the top of the heat ramp (t = 1) fills the smoke."""
     from ugpcl.viewer.camera import OrbitCamera
     from ugpcl.viewer.offscreen import frame
     from ugpcl.viewer.views import create_view
@@ -991,9 +992,12 @@ def test_device_smoke_is_the_shaders_smoke(runtime, gl, field):
         return np.exp(-((x - centre[0]) ** 2 + (y - centre[1]) ** 2 + (z - centre[2]) ** 2) / (2 * radius**2))
 
     density = 0.05 * blob((0.45, 0.35, 0.5), 0.15) + 0.4 * blob((0.55, 0.75, 0.45), 0.1)
-    sim.set_fields(velocity=smooth_field(np.random.default_rng(3), shape, 3, 1.0), density=density)
+    velocity = smooth_field(np.random.default_rng(3), shape, 3, 1.0)
+    if field == "uniform speed":
+        velocity = np.broadcast_to(np.float32([0.6, 0.8, 0.0]), (d, h, w, 3)).copy()
+    sim.set_fields(velocity=velocity, density=density)
     view = create_view(scene, gl, sim)
-    view.field, view.show_box = field, False
+    view.field, view.show_box = field.split()[-1], False
     size = (96, 64)
     inside = OrbitCamera(target=(0.0, 0.1, 0.0), distance=0.3, yaw=140.0, pitch=-25.0, near=0.01, far=10.0)
     for camera in (view.png_camera(), inside):
